@@ -1,0 +1,15 @@
+#pragma once
+
+namespace CLI {
+class App;
+}
+
+namespace dg::tools {
+
+// Each subcommand lives in its own folder and adds itself to the command line.
+// Its callback throws dg::Error on bad input; main() prints it and exits 1.
+void AddSimCommand(CLI::App& app);
+void AddBenchCommand(CLI::App& app);
+void AddMeshCommand(CLI::App& app);
+
+}  // namespace dg::tools

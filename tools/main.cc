@@ -1,0 +1,28 @@
+// The dynaguide command: one binary, one subcommand per task.
+#include <cstdio>
+#include <exception>
+
+#include <CLI/CLI.hpp>
+
+#include "sim/error.h"
+#include "tools/commands.h"
+
+int main(int argc, char** argv) {
+  CLI::App app{"dynaguide: image-constrained soft-tissue simulation for surgical guidance"};
+  app.require_subcommand(1);
+  dg::tools::AddSimCommand(app);
+  dg::tools::AddBenchCommand(app);
+  dg::tools::AddMeshCommand(app);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
+  } catch (const dg::Error& e) {
+    std::fprintf(stderr, "dynaguide: error: %s\n", e.what());
+    return 1;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "dynaguide: unexpected error: %s\n", e.what());
+    return 2;
+  }
+  return 0;
+}
