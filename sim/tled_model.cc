@@ -1,0 +1,83 @@
+#include "sim/tled_model.h"
+
+#include <algorithm>
+#include <numeric>
+
+#include <Eigen/Dense>
+
+#include "sim/error.h"
+
+namespace dg::sim {
+
+template <typename T>
+TledModel<T>::TledModel(const TetMesh& mesh, const Material& material)
+    : mesh_(mesh), material_(material) {
+  if (const std::string problem = material.Validate(); !problem.empty()) {
+    throw Error("invalid material: " + problem, "material", "correct the material parameters");
+  }
+  OrientElements(&mesh_, Orientation::kReject);
+  if (mesh_.num_nodes() > (1 << 29)) {
+    throw Error("mesh too large for 32-bit gather offsets", mesh_.source, "split the mesh");
+  }
+
+  // Elements in order of their smallest node: neighbours in memory share nodes.
+  const int E = mesh_.num_tets();
+  std::vector<int> order(E);
+  std::iota(order.begin(), order.end(), 0);
+  std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
+    return mesh_.tets.col(a).minCoeff() < mesh_.tets.col(b).minCoeff();
+  });
+
+  num_blocks_ = (E + kLanes - 1) / kLanes;
+  const size_t slots = size_t(num_blocks_) * kLanes;
+  nodes_.assign(slots * 4, 0);
+  dN_dX_.assign(slots * 9, T(0));
+  volume_m3_.assign(slots, T(0));
+  element_of_slot_.assign(slots, -1);
+  mass_kg_.assign(mesh_.num_nodes(), 0.0);
+
+  for (size_t slot = 0; slot < size_t(E); ++slot) {
+    const int e = order[slot];
+    const size_t b = slot / kLanes, l = slot % kLanes;
+    element_of_slot_[slot] = e;
+    // dN/dX from the inverse of the reference edge matrix: for linear shape
+    // functions, [dN1; dN2; dN3] = (X1-X0, X2-X0, X3-X0)^-1 (rows: corners).
+    Eigen::Matrix3d edges;
+    for (int c = 0; c < 3; ++c) edges.col(c) = mesh_.X_m.col(mesh_.tets(c + 1, e)) - mesh_.X_m.col(mesh_.tets(0, e));
+    const double volume = edges.determinant() / 6.0;
+    const Eigen::Matrix3d dN = edges.inverse();  // row c: dN_{c+1}/dX
+    for (int c = 0; c < 4; ++c) nodes_[(b * 4 + c) * kLanes + l] = mesh_.tets(c, e);
+    for (int c = 0; c < 3; ++c) {
+      for (int j = 0; j < 3; ++j) dN_dX_[(b * 9 + c * 3 + j) * kLanes + l] = static_cast<T>(dN(c, j));
+    }
+    volume_m3_[b * kLanes + l] = static_cast<T>(volume);
+    for (int c = 0; c < 4; ++c) mass_kg_[mesh_.tets(c, e)] += material_.density_kg_m3 * volume / 4.0;
+  }
+
+  // Gather list in slot order, so each node sums its forces in a fixed order.
+  gather_begin_.assign(mesh_.num_nodes() + 1, 0);
+  for (int e = 0; e < E; ++e) {
+    for (int c = 0; c < 4; ++c) ++gather_begin_[mesh_.tets(c, e) + 1];
+  }
+  std::partial_sum(gather_begin_.begin(), gather_begin_.end(), gather_begin_.begin());
+  gather_offsets_.resize(gather_begin_.back());
+  std::vector<int32_t> next(gather_begin_.begin(), gather_begin_.end() - 1);
+  for (size_t slot = 0; slot < size_t(E); ++slot) {
+    const size_t b = slot / kLanes, l = slot % kLanes;
+    for (int c = 0; c < 4; ++c) {
+      const int node = nodes_[(b * 4 + c) * kLanes + l];
+      gather_offsets_[next[node]++] = static_cast<int32_t>((b * 12 + c * 3) * kLanes + l);
+    }
+  }
+  for (int a = 0; a < mesh_.num_nodes(); ++a) {
+    if (mass_kg_[a] <= 0) {
+      throw Error("node " + std::to_string(a) + " belongs to no element and has no mass", mesh_.source,
+                  "remove unused nodes (dg::sim::RemoveUnusedNodes) before simulating");
+    }
+  }
+}
+
+template class TledModel<float>;
+template class TledModel<double>;
+
+}  // namespace dg::sim

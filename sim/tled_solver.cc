@@ -1,0 +1,340 @@
+#include "sim/tled_solver.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/partitioner.h>
+
+#include "sim/error.h"
+#include "sim/log.h"
+#include "sim/tled_kernel.h"
+
+namespace dg::sim {
+namespace {
+
+// Work is split into fixed chunks so that every partial result (minimum J,
+// kinetic energy) is summed in the same order whatever the thread count.
+constexpr int kBlocksPerChunk = 8;
+constexpr int kNodesPerChunk = 256;
+
+int NumChunks(int items, int per_chunk) { return (items + per_chunk - 1) / per_chunk; }
+
+std::string Milliseconds(double seconds) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.4g ms", seconds * 1e3);
+  return text;
+}
+
+std::string StepWhere(long long step, double time_s) {
+  char text[64];
+  std::snprintf(text, sizeof text, "step %lld, t = %.6g s", step, time_s);
+  return text;
+}
+
+}  // namespace
+
+std::string SolverOptions::Validate() const {
+  if (!std::isfinite(dt_s) || dt_s <= 0) return "dt_s must be positive (the paper uses 2e-4 s)";
+  if (!std::isfinite(damping_per_s) || damping_per_s < 0) {
+    return "damping_per_s (alpha) must be zero or positive (the paper uses 75 /s)";
+  }
+  if (damping_per_s * dt_s >= 2.0) return "alpha * dt must be below 2 for the update to be stable";
+  if (!gravity_m_s2.allFinite()) return "gravity must be finite";
+  if (!(stability_safety > 0 && stability_safety <= 1)) return "stability_safety must lie in (0, 1]";
+  if (energy_window_steps < 1 || !(energy_growth_limit > 1)) {
+    return "energy_window_steps must be >= 1 and energy_growth_limit > 1";
+  }
+  return {};
+}
+
+template <typename T>
+TledSolver<T>::TledSolver(std::shared_ptr<const TledModel<T>> model, BoundaryConditions conditions,
+                          const SolverOptions& options, const StabilityReport* stability)
+    : model_(std::move(model)), conditions_(std::move(conditions)), options_(options) {
+  if (const std::string problem = options_.Validate(); !problem.empty()) {
+    throw Error("invalid solver options: " + problem, "solver options", "correct the option");
+  }
+  const int n_dofs = 3 * model_->num_nodes();
+  dof_kind_.assign(n_dofs, -1);
+  for (int dof : conditions_.fixed_dofs) {
+    if (dof < 0 || dof >= n_dofs) {
+      throw Error("fixed degree of freedom " + std::to_string(dof) + " is out of range", model_->mesh().source,
+                  "degrees of freedom are 3 * node + axis for the mesh's " +
+                      std::to_string(model_->num_nodes()) + " nodes");
+    }
+    dof_kind_[dof] = -2;
+  }
+  for (size_t k = 0; k < conditions_.prescribed_dofs.size(); ++k) {
+    const int dof = conditions_.prescribed_dofs[k];
+    if (dof < 0 || dof >= n_dofs) {
+      throw Error("prescribed degree of freedom " + std::to_string(dof) + " is out of range",
+                  model_->mesh().source, "degrees of freedom are 3 * node + axis");
+    }
+    if (dof_kind_[dof] != -1) {
+      throw Error("degree of freedom " + std::to_string(dof) + " (node " + std::to_string(dof / 3) +
+                      ") is both fixed and prescribed, or prescribed twice",
+                  "boundary conditions", "give each degree of freedom at most one condition");
+    }
+    dof_kind_[dof] = static_cast<int>(k);
+  }
+  target_begin_.assign(conditions_.prescribed_dofs.size(), 0.0);
+  target_end_.assign(conditions_.prescribed_dofs.size(), 0.0);
+
+  if (stability) {
+    stability_ = *stability;
+  } else {
+    std::vector<int> constrained = conditions_.fixed_dofs;
+    constrained.insert(constrained.end(), conditions_.prescribed_dofs.begin(),
+                       conditions_.prescribed_dofs.end());
+    stability_ = EstimateStability(model_->mesh(), model_->material(), constrained);
+  }
+  const double safe_dt = options_.stability_safety * stability_.dt_critical_s;
+  if (options_.dt_s > safe_dt) {
+    switch (options_.time_step_policy) {
+      case TimeStepPolicy::kRefuse:
+        throw Error("time step " + Milliseconds(options_.dt_s) + " exceeds " +
+                        std::to_string(options_.stability_safety) + " x the " + stability_.Describe(),
+                    model_->mesh().source,
+                    "use dt <= " + Milliseconds(safe_dt) +
+                        ", a coarser or better-shaped mesh near the limiting node, or automatic substepping");
+      case TimeStepPolicy::kSubstep:
+        substeps_ = static_cast<int>(std::ceil(options_.dt_s / safe_dt));
+        Logger("sim").info("time step {} split into {} substeps: {}", Milliseconds(options_.dt_s), substeps_,
+                           stability_.Describe());
+        break;
+      case TimeStepPolicy::kUnchecked:
+        Logger("sim").warn("time step {} is above the safe limit {}; running unchecked",
+                           Milliseconds(options_.dt_s), Milliseconds(safe_dt));
+        break;
+    }
+  }
+
+  const double dt = internal_dt_s();
+  const double A = 2.0 / (2.0 + options_.damping_per_s * dt);
+  coef_u_ = static_cast<T>(2.0 * A);
+  coef_u_prev_ = static_cast<T>(A * (options_.damping_per_s * dt / 2.0 - 1.0));
+  force_gain_.resize(model_->num_nodes());
+  for (int a = 0; a < model_->num_nodes(); ++a) {
+    force_gain_[a] = static_cast<T>(A * dt * dt / model_->lumped_mass_kg()[a]);
+  }
+  for (int i = 0; i < 3; ++i) gravity_term_[i] = static_cast<T>(A * dt * dt * options_.gravity_m_s2[i]);
+
+  u_prev_.assign(n_dofs, T(0));
+  u_.assign(n_dofs, T(0));
+  u_next_.assign(n_dofs, T(0));
+  element_forces_.assign(model_->force_array_size(), T(0));
+  internal_force_.assign(n_dofs, T(0));
+  external_force_.assign(n_dofs, T(0));
+  reaction_.assign(n_dofs, T(0));
+  chunk_min_J_.assign(NumChunks(model_->num_blocks(), kBlocksPerChunk), T(1));
+  chunk_kinetic_.assign(NumChunks(model_->num_nodes(), kNodesPerChunk), 0.0);
+}
+
+template <typename T>
+void TledSolver<T>::SetExternalForces(std::span<const double> forces_n) {
+  if (forces_n.size() != external_force_.size()) {
+    throw Error("external force vector has " + std::to_string(forces_n.size()) + " entries, expected " +
+                    std::to_string(external_force_.size()),
+                "external forces", "give 3 components per node");
+  }
+  for (size_t i = 0; i < forces_n.size(); ++i) {
+    if (!std::isfinite(forces_n[i])) {
+      throw Error("external force is not finite", "node " + std::to_string(i / 3) + ", axis " +
+                      std::to_string(i % 3), "check the load that produced it");
+    }
+    external_force_[i] = static_cast<T>(forces_n[i]);
+  }
+}
+
+template <typename T>
+void TledSolver<T>::Advance(int steps, std::span<const double> targets_m) {
+  if (targets_m.size() != target_end_.size()) {
+    throw Error("got " + std::to_string(targets_m.size()) + " prescribed targets for " +
+                    std::to_string(target_end_.size()) + " prescribed degrees of freedom",
+                StepWhere(internal_steps_, time_s()), "give one target per prescribed degree of freedom");
+  }
+  for (size_t k = 0; k < targets_m.size(); ++k) {
+    if (!std::isfinite(targets_m[k])) {
+      const int dof = conditions_.prescribed_dofs[k];
+      throw Error("prescribed displacement is not finite",
+                  "node " + std::to_string(dof / 3) + ", axis " + std::to_string(dof % 3) + ", " +
+                      StepWhere(internal_steps_, time_s()),
+                  "check the source of the prescribed motion");
+    }
+  }
+  for (size_t k = 0; k < targets_m.size(); ++k) {
+    target_begin_[k] = u_[conditions_.prescribed_dofs[k]];
+    target_end_[k] = targets_m[k];
+  }
+  const int total = steps * substeps_;
+  for (int s = 0; s < total; ++s) {
+    Step(double(s + 1) / total);
+    CheckStep();
+  }
+}
+
+template <typename T>
+void TledSolver<T>::Step(double fraction_end) {
+  const TledModel<T>& model = *model_;
+  // Element pass: forces of every element at U.
+  tbb::parallel_for(
+      tbb::blocked_range<int>(0, static_cast<int>(chunk_min_J_.size())),
+      [&](const tbb::blocked_range<int>& chunks) {
+        for (int c = chunks.begin(); c != chunks.end(); ++c) {
+          const int begin = c * kBlocksPerChunk;
+          const int end = std::min(begin + kBlocksPerChunk, model.num_blocks());
+          chunk_min_J_[c] = ComputeElementForces(model, u_.data(), element_forces_.data(), begin, end);
+        }
+      },
+      tbb::static_partitioner());
+
+  // Node pass: gather, central-difference update, boundary conditions, energy.
+  const double dt = internal_dt_s();
+  const double inv_dt2 = 1.0 / (dt * dt);
+  const double inv_2dt = 0.5 / dt;
+  const double alpha = options_.damping_per_s;
+  const double* mass = model.lumped_mass_kg().data();
+  const double g[3] = {options_.gravity_m_s2[0], options_.gravity_m_s2[1], options_.gravity_m_s2[2]};
+  tbb::parallel_for(
+      tbb::blocked_range<int>(0, static_cast<int>(chunk_kinetic_.size())),
+      [&](const tbb::blocked_range<int>& chunks) {
+        for (int c = chunks.begin(); c != chunks.end(); ++c) {
+          const int begin = c * kNodesPerChunk;
+          const int end = std::min(begin + kNodesPerChunk, model.num_nodes());
+          double kinetic = 0;
+          for (int a = begin; a < end; ++a) {
+            T f[3];
+            GatherNodalForce(model, element_forces_.data(), a, f);
+            for (int i = 0; i < 3; ++i) {
+              const int dof = 3 * a + i;
+              internal_force_[dof] = f[i];
+              const int kind = dof_kind_[dof];
+              T next;
+              if (kind == -1) {
+                next = force_gain_[a] * (external_force_[dof] - f[i]) + gravity_term_[i] + coef_u_ * u_[dof] +
+                       coef_u_prev_ * u_prev_[dof];
+              } else {
+                next = kind == -2 ? T(0)
+                                  : static_cast<T>(target_begin_[kind] +
+                                                   fraction_end * (target_end_[kind] - target_begin_[kind]));
+                const double acceleration = (double(next) - 2.0 * u_[dof] + u_prev_[dof]) * inv_dt2;
+                const double velocity = (double(next) - u_prev_[dof]) * inv_2dt;
+                reaction_[dof] = static_cast<T>(mass[a] * (acceleration + alpha * velocity - g[i]) + f[i] -
+                                                external_force_[dof]);
+              }
+              u_next_[dof] = next;
+              const double v = (double(next) - double(u_prev_[dof])) * inv_2dt;
+              kinetic += mass[a] * v * v;
+            }
+          }
+          chunk_kinetic_[c] = 0.5 * kinetic;
+        }
+      },
+      tbb::static_partitioner());
+
+  std::swap(u_prev_, u_);
+  std::swap(u_, u_next_);
+  ++internal_steps_;
+}
+
+template <typename T>
+void TledSolver<T>::CheckStep() {
+  // The forces just computed belong to the state before this step: J is the
+  // step's starting shape, and the energy its velocity.
+  min_J_ = *std::min_element(chunk_min_J_.begin(), chunk_min_J_.end());
+  kinetic_energy_j_ = 0;
+  for (double k : chunk_kinetic_) kinetic_energy_j_ += k;
+
+  const bool blowing_up = [&] {
+    if (internal_steps_ % options_.energy_window_steps != 0) return false;
+    window_energy_[0] = window_energy_[1];
+    window_energy_[1] = window_energy_[2];
+    window_energy_[2] = kinetic_energy_j_;
+    const double G = options_.energy_growth_limit;
+    return window_energy_[0] > 0 && window_energy_[1] > G * window_energy_[0] &&
+           window_energy_[2] > G * window_energy_[1];
+  }();
+  if (!std::isfinite(kinetic_energy_j_) || blowing_up) {
+    // Name the node moving fastest: where the instability (or the bad value) sits.
+    int worst = 0;
+    double worst_speed = -1;
+    for (int a = 0; a < model_->num_nodes(); ++a) {
+      double speed = 0;
+      for (int i = 0; i < 3; ++i) {
+        const double v = double(u_[3 * a + i]) - double(u_prev_[3 * a + i]);
+        speed += v * v;
+      }
+      if (!std::isfinite(speed)) speed = std::numeric_limits<double>::infinity();
+      if (speed > worst_speed) {
+        worst_speed = speed;
+        worst = a;
+      }
+    }
+    const Eigen::Vector3d x = model_->mesh().X_m.col(worst) * 1e3;
+    char where[160];
+    std::snprintf(where, sizeof where, "node %d at (%.2f, %.2f, %.2f) mm, %s", worst, x.x(), x.y(), x.z(),
+                  StepWhere(internal_steps_, time_s()).c_str());
+    const std::string what = std::isfinite(kinetic_energy_j_)
+                                 ? "numerical blow-up: kinetic energy grew more than " +
+                                       std::to_string(options_.energy_growth_limit) + "x in each of two " +
+                                       std::to_string(options_.energy_window_steps) + "-step windows"
+                                 : "non-finite displacement or velocity";
+    throw Error(what, where,
+                "reduce dt below " + Milliseconds(options_.stability_safety * stability_.dt_critical_s) +
+                    " (" + stability_.Describe() + "), or check the loads for NaN");
+  }
+  if (!(min_J_ > 0)) ThrowInversion();
+}
+
+template <typename T>
+void TledSolver<T>::ThrowInversion() const {
+  // Rare path: find the element in the blocks that reported J <= 0. Forces were
+  // computed from the previous level, now in u_prev_.
+  const TledModel<T>& model = *model_;
+  for (int b = 0; b < model.num_blocks(); ++b) {
+    for (int l = 0; l < TledModel<T>::kLanes; ++l) {
+      const int e = model.element_at(b, l);
+      if (e < 0) continue;
+      Eigen::Matrix3d edges_ref, edges_now;
+      for (int c = 0; c < 3; ++c) {
+        const int n0 = model.mesh().tets(0, e), nc = model.mesh().tets(c + 1, e);
+        edges_ref.col(c) = model.mesh().X_m.col(nc) - model.mesh().X_m.col(n0);
+        for (int i = 0; i < 3; ++i) {
+          edges_now(i, c) = edges_ref(i, c) + double(u_prev_[3 * nc + i]) - double(u_prev_[3 * n0 + i]);
+        }
+      }
+      const double J = (edges_now * edges_ref.inverse()).determinant();
+      if (!(J > 0)) {
+        Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+        for (int c = 0; c < 4; ++c) centroid += model.mesh().X_m.col(model.mesh().tets(c, e)) / 4.0;
+        centroid *= 1e3;
+        char where[200];
+        std::snprintf(where, sizeof where, "element %d (J = %.3g) at (%.2f, %.2f, %.2f) mm, %s", e, J,
+                      centroid.x(), centroid.y(), centroid.z(),
+                      StepWhere(internal_steps_ - 1, time_s() - internal_dt_s()).c_str());
+        throw Error("inverted element", where,
+                    "the imposed deformation crushes the mesh: reduce the prescribed displacement or "
+                    "load, refine the mesh there, or check the boundary conditions");
+      }
+    }
+  }
+  DG_CHECK(false);  // the kernel reported J <= 0 but no element has it
+}
+
+template <typename T>
+Eigen::Matrix3Xd TledSolver<T>::DisplacementMatrix() const {
+  Eigen::Matrix3Xd u(3, model_->num_nodes());
+  for (int a = 0; a < model_->num_nodes(); ++a) {
+    for (int i = 0; i < 3; ++i) u(i, a) = double(u_[3 * a + i]);
+  }
+  return u;
+}
+
+template class TledSolver<float>;
+template class TledSolver<double>;
+
+}  // namespace dg::sim

@@ -1,0 +1,133 @@
+#pragma once
+
+#include <memory>
+#include <span>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "sim/aligned_vector.h"
+#include "sim/stability.h"
+#include "sim/tled_model.h"
+
+namespace dg::sim {
+
+// What to do when the requested step exceeds the safety fraction of dt_cr.
+enum class TimeStepPolicy {
+  kRefuse,     // throw dg::Error naming both limits and the largest stable step
+  kSubstep,    // split each step into the fewest equal substeps that are safe
+  kUnchecked,  // run as asked (for stability studies); blow-ups are still detected
+};
+
+struct SolverOptions {
+  double dt_s = 2e-4;              // the paper's step
+  double damping_per_s = 75.0;     // alpha of C = alpha M (paper section 2.3)
+  Eigen::Vector3d gravity_m_s2 = Eigen::Vector3d::Zero();
+  TimeStepPolicy time_step_policy = TimeStepPolicy::kRefuse;
+  double stability_safety = 0.9;   // allowed fraction of the estimated dt_cr
+  // Blow-up: kinetic energy growing more than energy_growth_limit times in each
+  // of two consecutive windows of energy_window_steps steps. Physical motion
+  // from rest grows as t^2 (4x per doubling); an unstable mode grows
+  // geometrically (at 1.01 dt_cr, 1.33^2 per step).
+  int energy_window_steps = 10;
+  double energy_growth_limit = 100.0;
+
+  // Empty when valid; otherwise what is wrong and how to fix it.
+  std::string Validate() const;
+};
+
+// Degrees of freedom (3 node + axis) held by boundary conditions.
+struct BoundaryConditions {
+  std::vector<int> fixed_dofs;       // held at zero displacement
+  std::vector<int> prescribed_dofs;  // driven to targets given to Advance()
+};
+
+// Explicit TLED time integration of one mesh (paper eq. 3 with DESIGN.md section 5):
+//   U+ = 2/(2 + alpha dt) [ dt^2/M (R - F(U)) + 2U + (alpha dt/2 - 1) U- ],
+// then fixed and prescribed degrees of freedom overwrite their components.
+// Keeps the three time levels the formula needs and nothing else.
+//
+// Threading: Advance() runs its element and node loops under tbb::parallel_for
+// (bounded by the caller's tbb::global_control); results do not depend on the
+// thread count. One solver must not be advanced from two threads at once.
+// Advance() allocates nothing.
+template <typename T>
+class TledSolver {
+ public:
+  // Estimates the stability limit unless `stability` is given, and applies the
+  // time-step policy. @throws dg::Error for invalid options, out-of-range
+  // degrees of freedom, or (kRefuse) a time step above the safe limit.
+  TledSolver(std::shared_ptr<const TledModel<T>> model, BoundaryConditions conditions,
+             const SolverOptions& options, const StabilityReport* stability = nullptr);
+
+  // Advances `steps` time steps of dt_s; prescribed degrees of freedom move
+  // linearly from their current values to `targets_m` (one per prescribed dof,
+  // in the order given), reaching them at the last step.
+  // @throws dg::Error on non-finite targets, an inverted element (J <= 0),
+  // non-finite state or an energy blow-up, naming element or node, step and time.
+  // After a throw the state is that of the last completed step.
+  void Advance(int steps, std::span<const double> targets_m);
+
+  // External nodal forces R (3 per node, N), applied from the next step on.
+  // @throws dg::Error if a value is not finite.
+  void SetExternalForces(std::span<const double> forces_n);
+
+  const TledModel<T>& model() const { return *model_; }
+  const StabilityReport& stability() const { return stability_; }
+  const SolverOptions& options() const { return options_; }
+  int substeps_per_step() const { return substeps_; }
+  double internal_dt_s() const { return options_.dt_s / substeps_; }
+  long long steps_taken() const { return internal_steps_; }
+  double time_s() const { return internal_steps_ * internal_dt_s(); }
+
+  // Current displacement U (3 per node), metres.
+  std::span<const T> displacement() const { return {u_.data(), u_.size()}; }
+  Eigen::Matrix3Xd DisplacementMatrix() const;
+  // Internal force F(U) of the last step (3 per node), newtons.
+  std::span<const T> internal_forces() const { return {internal_force_.data(), internal_force_.size()}; }
+  // Force each constrained dof's support exerts on the body at the last step,
+  // M a + alpha M v + F - R (zero on free dofs), newtons.
+  std::span<const T> reaction_forces() const { return {reaction_.data(), reaction_.size()}; }
+  // Kinetic energy at the last completed step (central-difference velocity), joules.
+  double kinetic_energy_j() const { return kinetic_energy_j_; }
+  // Smallest element J seen at the last step.
+  double min_jacobian() const { return min_J_; }
+
+ private:
+  // One step of internal_dt_s(); prescribed dofs reach the given fraction of
+  // the way from their begin to their end targets.
+  void Step(double fraction_end);
+  void CheckStep();
+  [[noreturn]] void ThrowInversion() const;
+
+  std::shared_ptr<const TledModel<T>> model_;
+  BoundaryConditions conditions_;
+  SolverOptions options_;
+  StabilityReport stability_;
+  int substeps_ = 1;
+
+  // Per node: A dt^2 / M_a with A = 2 / (2 + alpha dt); per component A dt^2 g.
+  std::vector<T> force_gain_;
+  T gravity_term_[3] = {0, 0, 0};
+  T coef_u_ = 0, coef_u_prev_ = 0;  // 2A and A (alpha dt / 2 - 1)
+  // -1 free, -2 fixed, else the index into the prescribed targets.
+  std::vector<int> dof_kind_;
+  std::vector<double> target_begin_, target_end_;
+
+  AlignedVector<T> u_prev_, u_, u_next_;
+  AlignedVector<T> element_forces_;
+  std::vector<T> internal_force_, external_force_, reaction_;
+  std::vector<T> chunk_min_J_;
+  std::vector<double> chunk_kinetic_;
+
+  long long internal_steps_ = 0;
+  double kinetic_energy_j_ = 0;
+  double min_J_ = 1;
+  double window_energy_[3] = {0, 0, 0};  // kinetic energy at the last three window ends
+};
+
+extern template class TledSolver<float>;
+extern template class TledSolver<double>;
+
+}  // namespace dg::sim
