@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <limits>
 
+#include <Eigen/LU>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <tbb/partitioner.h>
@@ -132,6 +133,7 @@ TledSolver<T>::TledSolver(std::shared_ptr<const TledModel<T>> model, BoundaryCon
   reaction_.assign(n_dofs, T(0));
   chunk_min_J_.assign(NumChunks(model_->num_blocks(), kBlocksPerChunk), T(1));
   chunk_kinetic_.assign(NumChunks(model_->num_nodes(), kNodesPerChunk), 0.0);
+  energy_history_.assign(2 * options_.energy_window_steps + 1, 0.0);
 }
 
 template <typename T>
@@ -147,6 +149,23 @@ void TledSolver<T>::SetExternalForces(std::span<const double> forces_n) {
                       std::to_string(i % 3), "check the load that produced it");
     }
     external_force_[i] = static_cast<T>(forces_n[i]);
+  }
+}
+
+template <typename T>
+void TledSolver<T>::SetState(std::span<const double> u_m, std::span<const double> v_m_s) {
+  if (u_m.size() != u_.size() || v_m_s.size() != u_.size()) {
+    throw Error("initial state has " + std::to_string(u_m.size()) + " displacements and " +
+                    std::to_string(v_m_s.size()) + " velocities, expected " + std::to_string(u_.size()),
+                "initial state", "give 3 components per node");
+  }
+  const double dt = internal_dt_s();
+  for (size_t i = 0; i < u_.size(); ++i) {
+    if (!std::isfinite(u_m[i]) || !std::isfinite(v_m_s[i])) {
+      throw Error("initial state is not finite", "node " + std::to_string(i / 3), "check its source");
+    }
+    u_[i] = static_cast<T>(u_m[i]);
+    u_prev_[i] = static_cast<T>(u_m[i] - v_m_s[i] * dt);
   }
 }
 
@@ -249,15 +268,8 @@ void TledSolver<T>::CheckStep() {
   kinetic_energy_j_ = 0;
   for (double k : chunk_kinetic_) kinetic_energy_j_ += k;
 
-  const bool blowing_up = [&] {
-    if (internal_steps_ % options_.energy_window_steps != 0) return false;
-    window_energy_[0] = window_energy_[1];
-    window_energy_[1] = window_energy_[2];
-    window_energy_[2] = kinetic_energy_j_;
-    const double G = options_.energy_growth_limit;
-    return window_energy_[0] > 0 && window_energy_[1] > G * window_energy_[0] &&
-           window_energy_[2] > G * window_energy_[1];
-  }();
+  energy_history_[internal_steps_ % energy_history_.size()] = kinetic_energy_j_;
+  const bool blowing_up = EnergyBlowingUp();
   if (!std::isfinite(kinetic_energy_j_) || blowing_up) {
     // Name the node moving fastest: where the instability (or the bad value) sits.
     int worst = 0;
@@ -280,7 +292,7 @@ void TledSolver<T>::CheckStep() {
                   StepWhere(internal_steps_, time_s()).c_str());
     const std::string what = std::isfinite(kinetic_energy_j_)
                                  ? "numerical blow-up: kinetic energy grew more than " +
-                                       std::to_string(options_.energy_growth_limit) + "x in each of two " +
+                                       std::to_string(options_.energy_growth_limit) + "x in each of the last two " +
                                        std::to_string(options_.energy_window_steps) + "-step windows"
                                  : "non-finite displacement or velocity";
     throw Error(what, where,
@@ -288,6 +300,18 @@ void TledSolver<T>::CheckStep() {
                     " (" + stability_.Describe() + "), or check the loads for NaN");
   }
   if (!(min_J_ > 0)) ThrowInversion();
+}
+
+template <typename T>
+bool TledSolver<T>::EnergyBlowingUp() const {
+  const int W = options_.energy_window_steps;
+  if (internal_steps_ < 2 * W) return false;
+  const size_t ring = energy_history_.size();
+  const double now = energy_history_[internal_steps_ % ring];
+  const double one_window_ago = energy_history_[(internal_steps_ - W) % ring];
+  const double two_windows_ago = energy_history_[(internal_steps_ - 2 * W) % ring];
+  const double G = options_.energy_growth_limit;
+  return two_windows_ago > 0 && one_window_ago > G * two_windows_ago && now > G * one_window_ago;
 }
 
 template <typename T>
