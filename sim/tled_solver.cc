@@ -10,6 +10,7 @@
 #include <tbb/parallel_for.h>
 #include <tbb/partitioner.h>
 
+#include "sim/element_measures.h"
 #include "sim/error.h"
 #include "sim/log.h"
 #include "sim/tled_kernel.h"
@@ -83,6 +84,9 @@ TledSolver<T>::TledSolver(std::shared_ptr<const TledModel<T>> model, BoundaryCon
     dof_kind_[dof] = static_cast<int>(k);
   }
   target_begin_.assign(conditions_.prescribed_dofs.size(), 0.0);
+  for (int dof = 0; dof < n_dofs; ++dof) {
+    if (dof_kind_[dof] != -1) constrained_dofs_.push_back(dof);
+  }
   target_end_.assign(conditions_.prescribed_dofs.size(), 0.0);
 
   if (stability) {
@@ -118,6 +122,10 @@ TledSolver<T>::TledSolver(std::shared_ptr<const TledModel<T>> model, BoundaryCon
   const double A = 2.0 / (2.0 + options_.damping_per_s * dt);
   coef_u_ = static_cast<T>(2.0 * A);
   coef_u_prev_ = static_cast<T>(A * (options_.damping_per_s * dt / 2.0 - 1.0));
+  free_mass_.resize(n_dofs);
+  for (int dof = 0; dof < n_dofs; ++dof) {
+    free_mass_[dof] = dof_kind_[dof] == -1 ? static_cast<T>(model_->lumped_mass_kg()[dof / 3]) : T(0);
+  }
   force_gain_.resize(model_->num_nodes());
   for (int a = 0; a < model_->num_nodes(); ++a) {
     force_gain_[a] = static_cast<T>(A * dt * dt / model_->lumped_mass_kg()[a]);
@@ -211,49 +219,58 @@ void TledSolver<T>::Step(double fraction_end) {
       },
       tbb::static_partitioner());
 
-  // Node pass: gather, central-difference update, boundary conditions, energy.
-  const double dt = internal_dt_s();
-  const double inv_dt2 = 1.0 / (dt * dt);
-  const double inv_2dt = 0.5 / dt;
-  const double alpha = options_.damping_per_s;
-  const double* mass = model.lumped_mass_kg().data();
-  const double g[3] = {options_.gravity_m_s2[0], options_.gravity_m_s2[1], options_.gravity_m_s2[2]};
+  // Node pass: gather and central-difference update of every dof as if free,
+  // with the kinetic energy of the free dofs (sum of m v^2, scaled below).
   tbb::parallel_for(
       tbb::blocked_range<int>(0, static_cast<int>(chunk_kinetic_.size())),
       [&](const tbb::blocked_range<int>& chunks) {
         for (int c = chunks.begin(); c != chunks.end(); ++c) {
           const int begin = c * kNodesPerChunk;
           const int end = std::min(begin + kNodesPerChunk, model.num_nodes());
-          double kinetic = 0;
+          double twice_kinetic = 0;
           for (int a = begin; a < end; ++a) {
             T f[3];
             GatherNodalForce(model, element_forces_.data(), a, f);
+            T m_v2 = 0;
             for (int i = 0; i < 3; ++i) {
               const int dof = 3 * a + i;
               internal_force_[dof] = f[i];
-              const int kind = dof_kind_[dof];
-              T next;
-              if (kind == -1) {
-                next = force_gain_[a] * (external_force_[dof] - f[i]) + gravity_term_[i] + coef_u_ * u_[dof] +
-                       coef_u_prev_ * u_prev_[dof];
-              } else {
-                next = kind == -2 ? T(0)
-                                  : static_cast<T>(target_begin_[kind] +
-                                                   fraction_end * (target_end_[kind] - target_begin_[kind]));
-                const double acceleration = (double(next) - 2.0 * u_[dof] + u_prev_[dof]) * inv_dt2;
-                const double velocity = (double(next) - u_prev_[dof]) * inv_2dt;
-                reaction_[dof] = static_cast<T>(mass[a] * (acceleration + alpha * velocity - g[i]) + f[i] -
-                                                external_force_[dof]);
-              }
+              const T next = force_gain_[a] * (external_force_[dof] - f[i]) + gravity_term_[i] +
+                             coef_u_ * u_[dof] + coef_u_prev_ * u_prev_[dof];
               u_next_[dof] = next;
-              const double v = (double(next) - double(u_prev_[dof])) * inv_2dt;
-              kinetic += mass[a] * v * v;
+              const T v = next - u_prev_[dof];
+              m_v2 += free_mass_[dof] * v * v;
             }
+            twice_kinetic += m_v2;
           }
-          chunk_kinetic_[c] = 0.5 * kinetic;
+          chunk_kinetic_[c] = twice_kinetic;
         }
       },
       tbb::static_partitioner());
+
+  // Constrained dofs (few): overwrite, then the support's reaction
+  // M a + alpha M v + F - R and their kinetic energy.
+  const double dt = internal_dt_s();
+  const double inv_dt2 = 1.0 / (dt * dt);
+  const double inv_2dt = 0.5 / dt;
+  const double alpha = options_.damping_per_s;
+  const double* mass = model.lumped_mass_kg().data();
+  double constrained_twice_kinetic = 0;
+  for (const int dof : constrained_dofs_) {
+    const int kind = dof_kind_[dof];
+    const double next =
+        kind == -2 ? 0.0 : target_begin_[kind] + fraction_end * (target_end_[kind] - target_begin_[kind]);
+    u_next_[dof] = static_cast<T>(next);
+    const double acceleration = (next - 2.0 * u_[dof] + u_prev_[dof]) * inv_dt2;
+    const double velocity = (next - u_prev_[dof]) * inv_2dt;
+    const int a = dof / 3;
+    reaction_[dof] = static_cast<T>(mass[a] * (acceleration + alpha * velocity - options_.gravity_m_s2[dof % 3]) +
+                                    internal_force_[dof] - external_force_[dof]);
+    const double v = next - u_prev_[dof];
+    constrained_twice_kinetic += mass[a] * v * v;
+  }
+  kinetic_energy_j_ = 0.5 * inv_2dt * inv_2dt * constrained_twice_kinetic;
+  for (double k : chunk_kinetic_) kinetic_energy_j_ += 0.5 * inv_2dt * inv_2dt * k;
 
   std::swap(u_prev_, u_);
   std::swap(u_, u_next_);
@@ -265,8 +282,6 @@ void TledSolver<T>::CheckStep() {
   // The forces just computed belong to the state before this step: J is the
   // step's starting shape, and the energy its velocity.
   min_J_ = *std::min_element(chunk_min_J_.begin(), chunk_min_J_.end());
-  kinetic_energy_j_ = 0;
-  for (double k : chunk_kinetic_) kinetic_energy_j_ += k;
 
   energy_history_[internal_steps_ % energy_history_.size()] = kinetic_energy_j_;
   const bool blowing_up = EnergyBlowingUp();
@@ -316,37 +331,27 @@ bool TledSolver<T>::EnergyBlowingUp() const {
 
 template <typename T>
 void TledSolver<T>::ThrowInversion() const {
-  // Rare path: find the element in the blocks that reported J <= 0. Forces were
-  // computed from the previous level, now in u_prev_.
-  const TledModel<T>& model = *model_;
-  for (int b = 0; b < model.num_blocks(); ++b) {
-    for (int l = 0; l < TledModel<T>::kLanes; ++l) {
-      const int e = model.element_at(b, l);
-      if (e < 0) continue;
-      Eigen::Matrix3d edges_ref, edges_now;
-      for (int c = 0; c < 3; ++c) {
-        const int n0 = model.mesh().tets(0, e), nc = model.mesh().tets(c + 1, e);
-        edges_ref.col(c) = model.mesh().X_m.col(nc) - model.mesh().X_m.col(n0);
-        for (int i = 0; i < 3; ++i) {
-          edges_now(i, c) = edges_ref(i, c) + double(u_prev_[3 * nc + i]) - double(u_prev_[3 * n0 + i]);
-        }
-      }
-      const double J = (edges_now * edges_ref.inverse()).determinant();
-      if (!(J > 0)) {
-        Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
-        for (int c = 0; c < 4; ++c) centroid += model.mesh().X_m.col(model.mesh().tets(c, e)) / 4.0;
-        centroid *= 1e3;
-        char where[200];
-        std::snprintf(where, sizeof where, "element %d (J = %.3g) at (%.2f, %.2f, %.2f) mm, %s", e, J,
-                      centroid.x(), centroid.y(), centroid.z(),
-                      StepWhere(internal_steps_ - 1, time_s() - internal_dt_s()).c_str());
-        throw Error("inverted element", where,
-                    "the imposed deformation crushes the mesh: reduce the prescribed displacement or "
-                    "load, refine the mesh there, or check the boundary conditions");
-      }
+  // Rare path: name the most inverted element (smallest J, in double). The
+  // forces that reported it were computed at the previous level, now in u_prev_.
+  const TetMesh& mesh = model_->mesh();
+  int worst = 0;
+  double worst_J = std::numeric_limits<double>::infinity();
+  for (int e = 0; e < mesh.num_tets(); ++e) {
+    const double J = DeformationGradient(mesh, e, u_prev_.data()).determinant();
+    if (!(J >= worst_J)) {
+      worst_J = J;
+      worst = e;
     }
   }
-  DG_CHECK(false);  // the kernel reported J <= 0 but no element has it
+  Eigen::Vector3d centroid_mm = Eigen::Vector3d::Zero();
+  for (int c = 0; c < 4; ++c) centroid_mm += mesh.X_m.col(mesh.tets(c, worst)) * (1e3 / 4.0);
+  char where[200];
+  std::snprintf(where, sizeof where, "element %d (J = %.3g) at (%.2f, %.2f, %.2f) mm, %s", worst, worst_J,
+                centroid_mm.x(), centroid_mm.y(), centroid_mm.z(),
+                StepWhere(internal_steps_ - 1, time_s() - internal_dt_s()).c_str());
+  throw Error("inverted element", where,
+              "the imposed deformation crushes the mesh: reduce the prescribed displacement or load, refine "
+              "the mesh there, or check the boundary conditions");
 }
 
 template <typename T>

@@ -120,13 +120,15 @@ class TledSolver {
   T coef_u_ = 0, coef_u_prev_ = 0;  // 2A and A (alpha dt / 2 - 1)
   // -1 free, -2 fixed, else the index into the prescribed targets.
   std::vector<int> dof_kind_;
+  std::vector<int> constrained_dofs_;  // sorted
+  std::vector<T> free_mass_;           // per dof: nodal mass, 0 where constrained
   std::vector<double> target_begin_, target_end_;
 
   AlignedVector<T> u_prev_, u_, u_next_;
   AlignedVector<T> element_forces_;
   std::vector<T> internal_force_, external_force_, reaction_;
   std::vector<T> chunk_min_J_;
-  std::vector<double> chunk_kinetic_;
+  std::vector<double> chunk_kinetic_;  // twice the free dofs' kinetic energy times (2 dt)^2
 
   long long internal_steps_ = 0;
   double kinetic_energy_j_ = 0;
