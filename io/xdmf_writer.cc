@@ -1,0 +1,349 @@
+#include "io/xdmf_writer.h"
+
+#include <charconv>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <vector>
+
+#include <hdf5.h>
+
+#include "sim/error.h"
+#include "sim/log.h"
+
+namespace dg::io {
+namespace {
+
+constexpr char kFix[] = "check that the directory is writable and has free space";
+
+// Closes an HDF5 identifier at the end of its scope.
+class Handle {
+ public:
+  Handle(hid_t id, herr_t (*close)(hid_t)) : id_(id), close_(close) {}
+  ~Handle() { close_(id_); }
+  Handle(const Handle&) = delete;
+  Handle& operator=(const Handle&) = delete;
+  hid_t get() const { return id_; }
+
+ private:
+  hid_t id_;
+  herr_t (*close_)(hid_t);
+};
+
+// HDF5 calls return a negative identifier or status on failure.
+template <typename Status>
+Status Checked(Status status, const std::string& what, const std::string& where) {
+  if (status < 0) throw Error("HDF5 could not " + what, where, kFix);
+  return status;
+}
+
+// A matrix with one column per node or element is, in memory, the row-major
+// (rows x components) array XDMF reads; a scalar field is stored 1-D.
+void WriteDataset(hid_t parent, const std::string& name, hid_t type, const void* data, hsize_t rows,
+                  hsize_t components, const std::string& where) {
+  const hsize_t dims[2] = {rows, components};
+  Handle space(Checked(H5Screate_simple(components == 1 ? 1 : 2, dims, nullptr),
+                       "create a dataspace", where),
+               H5Sclose);
+  Handle set(Checked(H5Dcreate2(parent, name.c_str(), type, space.get(), H5P_DEFAULT, H5P_DEFAULT,
+                                H5P_DEFAULT),
+                     "create dataset " + name, where),
+             H5Dclose);
+  Checked(H5Dwrite(set.get(), type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data), "write dataset " + name,
+          where);
+}
+
+void WriteRootAttribute(hid_t file, const char* name, int value, const std::string& where) {
+  const bool exists =
+      Checked(H5Aexists(file, name), std::string("look up attribute ") + name, where) > 0;
+  Handle space(Checked(H5Screate(H5S_SCALAR), "create a dataspace", where), H5Sclose);
+  Handle attribute(Checked(exists ? H5Aopen(file, name, H5P_DEFAULT)
+                                  : H5Acreate2(file, name, H5T_NATIVE_INT, space.get(), H5P_DEFAULT,
+                                               H5P_DEFAULT),
+                           std::string("create attribute ") + name, where),
+                   H5Aclose);
+  Checked(H5Awrite(attribute.get(), H5T_NATIVE_INT, &value), std::string("write attribute ") + name,
+          where);
+}
+
+// /time_s grows by one entry per step, so it is chunked and unlimited.
+void CreateTimeDataset(hid_t file, const std::string& where) {
+  const hsize_t dims[1] = {0}, max_dims[1] = {H5S_UNLIMITED}, chunk[1] = {256};
+  Handle space(Checked(H5Screate_simple(1, dims, max_dims), "create a dataspace", where), H5Sclose);
+  Handle properties(Checked(H5Pcreate(H5P_DATASET_CREATE), "create properties", where), H5Pclose);
+  Checked(H5Pset_chunk(properties.get(), 1, chunk), "set chunking", where);
+  Handle set(Checked(H5Dcreate2(file, "time_s", H5T_NATIVE_DOUBLE, space.get(), H5P_DEFAULT,
+                                properties.get(), H5P_DEFAULT),
+                     "create dataset time_s", where),
+             H5Dclose);
+}
+
+void AppendTime(hid_t file, hsize_t index, double t_s, const std::string& where) {
+  Handle set(Checked(H5Dopen2(file, "time_s", H5P_DEFAULT), "open dataset time_s", where),
+             H5Dclose);
+  const hsize_t size[1] = {index + 1}, start[1] = {index}, count[1] = {1};
+  Checked(H5Dset_extent(set.get(), size), "extend dataset time_s", where);
+  Handle file_space(Checked(H5Dget_space(set.get()), "get a dataspace", where), H5Sclose);
+  Checked(H5Sselect_hyperslab(file_space.get(), H5S_SELECT_SET, start, nullptr, count, nullptr),
+          "select in time_s", where);
+  Handle memory_space(Checked(H5Screate_simple(1, count, nullptr), "create a dataspace", where),
+                      H5Sclose);
+  Checked(H5Dwrite(set.get(), H5T_NATIVE_DOUBLE, memory_space.get(), file_space.get(), H5P_DEFAULT,
+                   &t_s),
+          "write time_s", where);
+}
+
+hid_t CreateGroup(hid_t parent, const std::string& name, const std::string& where) {
+  return Checked(H5Gcreate2(parent, name.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT),
+                 "create group " + name, where);
+}
+
+// Shortest text that reads back to the same double.
+std::string Number(double value) {
+  char buffer[32];
+  const auto result = std::to_chars(buffer, buffer + sizeof(buffer), value);
+  return std::string(buffer, result.ptr);
+}
+
+std::string XmlEscape(const std::string& text) {
+  std::string escaped;
+  for (char c : text) {
+    switch (c) {
+      case '&':
+        escaped += "&amp;";
+        break;
+      case '<':
+        escaped += "&lt;";
+        break;
+      case '>':
+        escaped += "&gt;";
+        break;
+      case '"':
+        escaped += "&quot;";
+        break;
+      default:
+        escaped += c;
+    }
+  }
+  return escaped;
+}
+
+const char* AttributeType(Eigen::Index components) {
+  switch (components) {
+    case 1:
+      return "Scalar";
+    case 3:
+      return "Vector";
+    case 6:
+      return "Tensor6";
+    case 9:
+      return "Tensor";
+    default:
+      return "Matrix";
+  }
+}
+
+// One array of a step, as the .xmf describes it.
+struct Attribute {
+  std::string name;
+  const char* center;  // "Node" or "Cell"
+  std::string dataset;
+  Eigen::Index rows, components;
+};
+
+const std::vector<Attribute> kNoAttributes;
+
+struct Step {
+  double t_s;
+  std::vector<Attribute> attributes;
+};
+
+}  // namespace
+
+struct XdmfTimeSeriesWriter::Impl {
+  std::string h5_path, xmf_path;
+  std::string h5_reference;  // the .h5's file name as the .xmf refers to it
+  int num_nodes = 0, num_tets = 0;
+  hid_t file = -1;
+  bool closed = false;
+  std::vector<Step> steps;
+
+  void WriteGrid(std::ostream& xml, const std::string& indent, const std::string& name,
+                 const Step* step) const;
+  void WriteXmf() const;
+  std::vector<Attribute> WriteStep(hid_t group, const std::string& prefix,
+                                   const Eigen::Matrix3Xd& displacement_m,
+                                   const MeshFields& fields) const;
+};
+
+void XdmfTimeSeriesWriter::Impl::WriteGrid(std::ostream& xml, const std::string& indent,
+                                           const std::string& name, const Step* step) const {
+  const auto item = [&](const std::string& dims, const char* type, int precision,
+                        const std::string& dataset) {
+    xml << indent << "    <DataItem Dimensions=\"" << dims << "\" NumberType=\"" << type
+        << "\" Precision=\"" << precision << "\" Format=\"HDF\">" << h5_reference << ":" << dataset
+        << "</DataItem>\n";
+  };
+  xml << indent << "<Grid Name=\"" << name << "\" GridType=\"Uniform\">\n";
+  if (step) xml << indent << "  <Time Value=\"" << Number(step->t_s) << "\"/>\n";
+  xml << indent << "  <Topology TopologyType=\"Tetrahedron\" NumberOfElements=\"" << num_tets
+      << "\">\n";
+  item(std::to_string(num_tets) + " 4", "Int", 4, "/mesh/topology");
+  xml << indent << "  </Topology>\n" << indent << "  <Geometry GeometryType=\"XYZ\">\n";
+  item(std::to_string(num_nodes) + " 3", "Float", 8, "/mesh/geometry_m");
+  xml << indent << "  </Geometry>\n";
+  // A bare mesh (no step yet) has no time and no attributes.
+  for (const Attribute& attribute : step ? step->attributes : kNoAttributes) {
+    xml << indent << "  <Attribute Name=\"" << attribute.name << "\" AttributeType=\""
+        << AttributeType(attribute.components) << "\" Center=\"" << attribute.center << "\">\n";
+    std::string dims = std::to_string(attribute.rows);
+    if (attribute.components > 1) dims += " " + std::to_string(attribute.components);
+    item(dims, "Float", 8, attribute.dataset);
+    xml << indent << "  </Attribute>\n";
+  }
+  xml << indent << "</Grid>\n";
+}
+
+// Rewritten whole after each step and renamed into place, so a reader never
+// sees a half-written description.
+void XdmfTimeSeriesWriter::Impl::WriteXmf() const {
+  std::ostringstream xml;
+  xml << "<?xml version=\"1.0\" encoding=\"utf-8\"?>\n<Xdmf Version=\"3.0\">\n  <Domain>\n";
+  if (steps.empty()) {
+    WriteGrid(xml, "    ", "mesh", nullptr);  // an empty temporal collection would not open
+  } else {
+    xml << "    <Grid Name=\"time_series\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
+    for (size_t k = 0; k < steps.size(); ++k) {
+      WriteGrid(xml, "      ", "step_" + std::to_string(k), &steps[k]);
+    }
+    xml << "    </Grid>\n";
+  }
+  xml << "  </Domain>\n</Xdmf>\n";
+  const std::string temporary = xmf_path + ".tmp";
+  {
+    std::ofstream out(temporary);
+    out << xml.str();
+    out.close();
+    if (!out) throw Error("cannot write the XDMF description", temporary, kFix);
+  }
+  std::error_code error;
+  std::filesystem::rename(temporary, xmf_path, error);
+  if (error) {
+    throw Error("cannot rename to the XDMF description: " + error.message(), xmf_path, kFix);
+  }
+}
+
+std::vector<Attribute> XdmfTimeSeriesWriter::Impl::WriteStep(hid_t group, const std::string& prefix,
+                                                             const Eigen::Matrix3Xd& displacement_m,
+                                                             const MeshFields& fields) const {
+  std::vector<Attribute> attributes;
+  const auto write = [&](hid_t parent, const std::string& path, const std::string& name,
+                         const char* center, const double* data, Eigen::Index rows,
+                         Eigen::Index components) {
+    WriteDataset(parent, name, H5T_NATIVE_DOUBLE, data, rows, components, h5_path);
+    attributes.push_back({name, center, prefix + path + name, rows, components});
+  };
+  write(group, "/", kDisplacementName, "Node", displacement_m.data(), num_nodes, 3);
+  struct Kind {
+    const char* group;
+    const char* center;
+    const std::vector<std::pair<std::string, Eigen::MatrixXd>>* data;
+  };
+  for (const Kind& kind :
+       {Kind{"point", "Node", &fields.point_data}, Kind{"cell", "Cell", &fields.cell_data}}) {
+    if (kind.data->empty()) continue;
+    Handle subgroup(CreateGroup(group, kind.group, h5_path), H5Gclose);
+    for (const auto& [name, values] : *kind.data) {
+      write(subgroup.get(), "/" + std::string(kind.group) + "/", name, kind.center, values.data(),
+            values.cols(), values.rows());
+    }
+  }
+  return attributes;
+}
+
+XdmfTimeSeriesWriter::XdmfTimeSeriesWriter(const std::string& path, const sim::TetMesh& mesh)
+    : impl_(std::make_unique<Impl>()) {
+  Impl& impl = *impl_;
+  impl.h5_path = path + ".h5";
+  impl.xmf_path = path + ".xmf";
+  impl.h5_reference = XmlEscape(std::filesystem::path(impl.h5_path).filename().string());
+  impl.num_nodes = mesh.num_nodes();
+  impl.num_tets = mesh.num_tets();
+  // Checked here so that the common mistake gets a plain message, not HDF5's error stack.
+  const std::filesystem::path directory = std::filesystem::path(impl.h5_path).parent_path();
+  if (!directory.empty() && !std::filesystem::is_directory(directory)) {
+    throw Error("the output directory does not exist", impl.h5_path,
+                "create it first, or choose another path");
+  }
+  impl.file = Checked(H5Fcreate(impl.h5_path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT),
+                      "create the file", impl.h5_path);
+  try {
+    WriteRootAttribute(impl.file, "complete", 0, impl.h5_path);
+    Handle group(CreateGroup(impl.file, "mesh", impl.h5_path), H5Gclose);
+    WriteDataset(group.get(), "geometry_m", H5T_NATIVE_DOUBLE, mesh.X_m.data(), impl.num_nodes, 3,
+                 impl.h5_path);
+    WriteDataset(group.get(), "topology", H5T_NATIVE_INT, mesh.tets.data(), impl.num_tets, 4,
+                 impl.h5_path);
+    Handle steps(CreateGroup(impl.file, "steps", impl.h5_path), H5Gclose);
+    CreateTimeDataset(impl.file, impl.h5_path);
+    Checked(H5Fflush(impl.file, H5F_SCOPE_GLOBAL), "flush the file", impl.h5_path);
+    impl.WriteXmf();
+  } catch (...) {
+    H5Fclose(impl.file);
+    throw;
+  }
+}
+
+XdmfTimeSeriesWriter::~XdmfTimeSeriesWriter() {
+  if (impl_->closed) return;
+  try {
+    Close(false);
+    Logger("io").warn("{} closed before the run finished: marked complete=0", impl_->h5_path);
+  } catch (const std::exception& error) {
+    Logger("io").error("closing {}: {}", impl_->h5_path, error.what());
+  }
+}
+
+void XdmfTimeSeriesWriter::Append(double t_s, const Eigen::Matrix3Xd& displacement_m,
+                                  const MeshFields& fields) {
+  Impl& impl = *impl_;
+  DG_CHECK(!impl.closed);
+  const std::string step_name = "step " + std::to_string(impl.steps.size());
+  if (!std::isfinite(t_s) || (!impl.steps.empty() && t_s <= impl.steps.back().t_s)) {
+    throw Error("time " + Number(t_s) + " s is not finite or not after the previous step's",
+                impl.h5_path + ", " + step_name, "append steps in increasing time");
+  }
+  if (displacement_m.cols() != impl.num_nodes) {
+    throw Error("displacement has " + std::to_string(displacement_m.cols()) + " columns for " +
+                    std::to_string(impl.num_nodes) + " nodes",
+                impl.h5_path + ", " + step_name,
+                "pass one displacement column per node of the mesh");
+  }
+  CheckMeshFields(fields, impl.num_nodes, impl.num_tets, impl.h5_path + ", " + step_name);
+  char group_name[32];
+  std::snprintf(group_name, sizeof(group_name), "/steps/%06zu", impl.steps.size());
+  Step step{t_s, {}};
+  {
+    Handle group(CreateGroup(impl.file, group_name, impl.h5_path), H5Gclose);
+    step.attributes = impl.WriteStep(group.get(), group_name, displacement_m, fields);
+  }
+  AppendTime(impl.file, impl.steps.size(), t_s, impl.h5_path);
+  Checked(H5Fflush(impl.file, H5F_SCOPE_GLOBAL), "flush the file", impl.h5_path);
+  impl.steps.push_back(std::move(step));
+  impl.WriteXmf();
+}
+
+void XdmfTimeSeriesWriter::Close(bool complete) {
+  Impl& impl = *impl_;
+  if (impl.closed) return;
+  impl.closed = true;
+  const Handle file(impl.file, H5Fclose);  // closed whatever happens below
+  WriteRootAttribute(impl.file, "complete", complete ? 1 : 0, impl.h5_path);
+  Checked(H5Fflush(impl.file, H5F_SCOPE_GLOBAL), "flush the file", impl.h5_path);
+}
+
+int XdmfTimeSeriesWriter::num_steps() const { return static_cast<int>(impl_->steps.size()); }
+
+}  // namespace dg::io
