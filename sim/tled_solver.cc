@@ -120,8 +120,7 @@ TledSolver<T>::TledSolver(std::shared_ptr<const TledModel<T>> model, BoundaryCon
 
   const double dt = internal_dt_s();
   const double A = 2.0 / (2.0 + options_.damping_per_s * dt);
-  coef_u_ = static_cast<T>(2.0 * A);
-  coef_u_prev_ = static_cast<T>(A * (options_.damping_per_s * dt / 2.0 - 1.0));
+  increment_decay_ = static_cast<T>((2.0 - options_.damping_per_s * dt) / (2.0 + options_.damping_per_s * dt));
   free_mass_.resize(n_dofs);
   for (int dof = 0; dof < n_dofs; ++dof) {
     free_mass_[dof] = dof_kind_[dof] == -1 ? static_cast<T>(model_->lumped_mass_kg()[dof / 3]) : T(0);
@@ -235,8 +234,8 @@ void TledSolver<T>::Step(double fraction_end) {
             for (int i = 0; i < 3; ++i) {
               const int dof = 3 * a + i;
               internal_force_[dof] = f[i];
-              const T next = force_gain_[a] * (external_force_[dof] - f[i]) + gravity_term_[i] +
-                             coef_u_ * u_[dof] + coef_u_prev_ * u_prev_[dof];
+              const T next = u_[dof] + force_gain_[a] * (external_force_[dof] - f[i]) + gravity_term_[i] +
+                             increment_decay_ * (u_[dof] - u_prev_[dof]);
               u_next_[dof] = next;
               const T v = next - u_prev_[dof];
               m_v2 += free_mass_[dof] * v * v;

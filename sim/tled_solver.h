@@ -47,7 +47,12 @@ struct BoundaryConditions {
 
 // Explicit TLED time integration of one mesh (paper eq. 3 with DESIGN.md section 5):
 //   U+ = 2/(2 + alpha dt) [ dt^2/M (R - F(U)) + 2U + (alpha dt/2 - 1) U- ],
-// then fixed and prescribed degrees of freedom overwrite their components.
+// computed in the algebraically identical increment form
+//   U+ - U = A dt^2/M (R - F(U)) + (2 - alpha dt)/(2 + alpha dt) (U - U-),  A = 2/(2 + alpha dt),
+// whose rest state is exactly R = F(U) whatever the coefficients round to: in
+// float, the coefficients of eq. 3 sum to 1 only within 1e-7, which acts as a
+// spurious spring of stiffness 1e-7 M/dt^2 and biased equilibrium reactions by 3e-4.
+// Then fixed and prescribed degrees of freedom overwrite their components.
 // Keeps the three time levels the formula needs and nothing else.
 //
 // Threading: Advance() runs its element and node loops under tbb::parallel_for
@@ -117,7 +122,7 @@ class TledSolver {
   // Per node: A dt^2 / M_a with A = 2 / (2 + alpha dt); per component A dt^2 g.
   std::vector<T> force_gain_;
   T gravity_term_[3] = {0, 0, 0};
-  T coef_u_ = 0, coef_u_prev_ = 0;  // 2A and A (alpha dt / 2 - 1)
+  T increment_decay_ = 0;  // (2 - alpha dt) / (2 + alpha dt)
   // -1 free, -2 fixed, else the index into the prescribed targets.
   std::vector<int> dof_kind_;
   std::vector<int> constrained_dofs_;  // sorted

@@ -1,0 +1,92 @@
+#include "tools/sim/sim_runner.h"
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include <catch2/catch.hpp>
+#include <hdf5.h>
+
+#include "io/gmsh_mesher.h"
+#include "sim/error.h"
+#include "tools/sim/builtin_problem.h"
+
+namespace dg::tools {
+namespace {
+
+std::string ReadText(const std::string& path) {
+  std::ifstream file(path);
+  std::stringstream text;
+  text << file.rdbuf();
+  return text.str();
+}
+
+// The root attribute "complete" of an HDF5 file, read through the HDF5 C API.
+int CompleteAttribute(const std::string& path) {
+  const hid_t file = H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+  REQUIRE(file >= 0);
+  const hid_t attribute = H5Aopen(file, "complete", H5P_DEFAULT);
+  REQUIRE(attribute >= 0);
+  int complete = -1;
+  H5Aread(attribute, H5T_NATIVE_INT, &complete);
+  H5Aclose(attribute);
+  H5Fclose(file);
+  return complete;
+}
+
+}  // namespace
+
+// The built-in example (20k tets, 1 s) gives the same displacement field in
+// float and double to 1e-4 of the largest displacement, and the same reaction.
+// (Its max |u| is the prescribed 10 mm in both by construction; the field is the real check.)
+TEST_CASE("sim runner: built-in example agrees in float and double", "[tools][integration]") {
+  io::SimProblem problem = io::ParseSimProblem(kBuiltinProblem, "<built-in example>", ".");
+  const sim::TetMesh mesh = io::LoadProblemMesh(problem.mesh);
+  SimRunOptions options;
+  options.write_output = false;
+  options.progress = false;
+  problem.precision = io::Precision::kFloat;
+  const SimSummary single = RunSimProblem(problem, mesh, options);
+  problem.precision = io::Precision::kDouble;
+  const SimSummary twice = RunSimProblem(problem, mesh, options);
+
+  REQUIRE(single.steps == 5000);
+  REQUIRE(single.simulated_s == Approx(1.0));
+  REQUIRE(twice.max_displacement_m == Approx(0.01).epsilon(1e-12));
+  const double largest = twice.final_displacement_m.colwise().norm().maxCoeff();
+  REQUIRE((single.final_displacement_m - twice.final_displacement_m).cwiseAbs().maxCoeff() < 1e-4 * largest);
+  REQUIRE(single.reactions_n.at(0).second.z() ==
+          Approx(twice.reactions_n.at(0).second.z()).epsilon(1e-4));
+  REQUIRE(twice.reactions_n.at(0).second.z() < 0);  // the support pushes the top down
+}
+
+// A run that inverts elements stops with the named error and leaves its
+// outputs readable and marked incomplete.
+TEST_CASE("sim runner: a failed run leaves incomplete, readable outputs", "[tools][unit]") {
+  const std::string crush = R"(mesh:
+  generate: box
+  tets: 400
+fixed:
+  - set: zmin
+prescribed:
+  - set: zmax
+    displacement_m: [0, 0, -0.06]
+    ramp: linear
+    ramp_s: 0.05
+duration_s: 0.1
+output_every_s: 0.005
+)";
+  const io::SimProblem problem = io::ParseSimProblem(crush, "crush.yaml", ".");
+  const sim::TetMesh mesh = io::LoadProblemMesh(problem.mesh);
+  const std::string out = (std::filesystem::temp_directory_path() / "dg_sim_runner_crush").string();
+  std::filesystem::remove_all(out);
+  SimRunOptions options;
+  options.out_dir = out;
+  options.progress = false;
+  REQUIRE_THROWS_WITH(RunSimProblem(problem, mesh, options), Catch::Contains("inverted element"));
+  REQUIRE(ReadText(out + "/summary.json").find("\"status\": \"incomplete: error\"") != std::string::npos);
+  REQUIRE(CompleteAttribute(out + "/sim.h5") == 0);
+  REQUIRE(std::filesystem::exists(out + "/sim.xmf"));
+}
+
+}  // namespace dg::tools

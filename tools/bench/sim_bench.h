@@ -1,0 +1,42 @@
+#pragma once
+
+#include <string>
+#include <vector>
+
+namespace dg::tools {
+
+struct SimBenchOptions {
+  std::string mode = "forward";
+  std::vector<int> tets{5000, 20000, 80000};
+  std::vector<int> threads{1, 2};
+  std::vector<std::string> precisions{"float", "double"};
+  int repeats = 7;                 // timed runs per configuration; the median is reported
+  double simulated_per_repeat_s = 0.05;  // 250 steps of 0.2 ms
+  double dt_s = 2e-4;
+};
+
+// One line of the saved table: the interface users script against (issue 2).
+struct SimBenchRecord {
+  int mesh_tets = 0;
+  int mesh_nodes = 0;
+  int threads = 0;
+  std::string precision, mode;
+  double tet_steps_per_s = 0;      // median over repeats
+  double tet_steps_per_s_min = 0, tet_steps_per_s_max = 0;
+  double realtime_factor = 0;      // simulated seconds per wall second at dt_s
+  double dt_s = 0;
+  double dt_critical_s = 0;
+  int steps_per_repeat = 0, repeats = 0;
+};
+
+// Forward TLED throughput on Gmsh boxes (5 cm, the paper's material, base
+// fixed, top pressed down 1 mm) for every combination of the options.
+std::vector<SimBenchRecord> RunSimBench(const SimBenchOptions& options, bool progress);
+
+// Writes the records as a JSON list, each with the machine it ran on.
+void WriteSimBenchJson(const std::string& path, const std::vector<SimBenchRecord>& records);
+
+// A plain-text table of the records, for the terminal and the README.
+std::string SimBenchTable(const std::vector<SimBenchRecord>& records);
+
+}  // namespace dg::tools
