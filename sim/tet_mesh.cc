@@ -204,3 +204,48 @@ int RemoveUnusedNodes(TetMesh* mesh) {
 }
 
 }  // namespace dg::sim
+
+namespace dg::sim {
+namespace {
+
+// Spreads the low 10 bits of v so that two zero bits follow each.
+uint32_t SpreadBits(uint32_t v) {
+  v &= 0x3ff;
+  v = (v | (v << 16)) & 0x030000ff;
+  v = (v | (v << 8)) & 0x0300f00f;
+  v = (v | (v << 4)) & 0x030c30c3;
+  v = (v | (v << 2)) & 0x09249249;
+  return v;
+}
+
+}  // namespace
+
+std::vector<int> RenumberNodesForLocality(TetMesh* mesh) {
+  const Eigen::Matrix<double, 3, 2> box = BoundingBox(*mesh);
+  const Eigen::Vector3d extent = (box.col(1) - box.col(0)).cwiseMax(1e-300);
+  std::vector<std::pair<uint32_t, int>> keys(mesh->num_nodes());
+  for (int a = 0; a < mesh->num_nodes(); ++a) {
+    const Eigen::Vector3d unit = (mesh->X_m.col(a) - box.col(0)).cwiseQuotient(extent);
+    uint32_t code = 0;
+    for (int i = 0; i < 3; ++i) code |= SpreadBits(static_cast<uint32_t>(std::min(unit[i], 1.0) * 1023.0)) << i;
+    keys[a] = {code, a};
+  }
+  std::sort(keys.begin(), keys.end());
+  std::vector<int> new_id(mesh->num_nodes());
+  Eigen::Matrix3Xd X(3, mesh->num_nodes());
+  for (int k = 0; k < mesh->num_nodes(); ++k) {
+    new_id[keys[k].second] = k;
+    X.col(k) = mesh->X_m.col(keys[k].second);
+  }
+  mesh->X_m = std::move(X);
+  for (int e = 0; e < mesh->num_tets(); ++e) {
+    for (int c = 0; c < 4; ++c) mesh->tets(c, e) = new_id[mesh->tets(c, e)];
+  }
+  for (auto& [name, nodes] : mesh->node_sets) {
+    for (int& a : nodes) a = new_id[a];
+    std::sort(nodes.begin(), nodes.end());
+  }
+  return new_id;
+}
+
+}  // namespace dg::sim

@@ -62,43 +62,23 @@ T ComputeElementForces(const TledModel<T>& model, const T* __restrict u, T* __re
       const T F21 = d1z * g1y + d2z * g2y + d3z * g3y;
       const T F22 = 1 + d1z * g1z + d2z * g2z + d3z * g3z;
 
-      // Right Cauchy-Green C = F^T F (symmetric).
-      const T C00 = F00 * F00 + F10 * F10 + F20 * F20;
-      const T C11 = F01 * F01 + F11 * F11 + F21 * F21;
-      const T C22 = F02 * F02 + F12 * F12 + F22 * F22;
-      const T C01 = F00 * F01 + F10 * F11 + F20 * F21;
-      const T C02 = F00 * F02 + F10 * F12 + F20 * F22;
-      const T C12 = F01 * F02 + F11 * F12 + F21 * F22;
-
-      const T J = F00 * (F11 * F22 - F12 * F21) - F01 * (F10 * F22 - F12 * F20) +
-                  F02 * (F10 * F21 - F11 * F20);
-      const T J2 = J * J;  // det C
-      const T inv_J2 = T(1) / J2;
-      // C^-1 = adj(C) / det C.
-      const T Ci00 = (C11 * C22 - C12 * C12) * inv_J2;
-      const T Ci11 = (C00 * C22 - C02 * C02) * inv_J2;
-      const T Ci22 = (C00 * C11 - C01 * C01) * inv_J2;
-      const T Ci01 = (C02 * C12 - C01 * C22) * inv_J2;
-      const T Ci02 = (C01 * C12 - C02 * C11) * inv_J2;
-      const T Ci12 = (C01 * C02 - C00 * C12) * inv_J2;
-
-      // S = a I + s C^-1 with a = mu J^(-2/3), s = kappa J (J - 1) - a tr(C) / 3.
-      const T a = mu * InverseCubeRoot(J2);
-      const T s = kappa * J * (J - 1) - a * (C00 + C11 + C22) * T(1.0 / 3.0);
-      const T S00 = a + s * Ci00, S11 = a + s * Ci11, S22 = a + s * Ci22;
-      const T S01 = s * Ci01, S02 = s * Ci02, S12 = s * Ci12;
-
-      // First Piola-Kirchhoff stress times volume: V0 P = V0 F S.
+      // P = F S with S = a I + s C^-1 (a = mu J^(-2/3), s = kappa J (J - 1) - a tr(C)/3)
+      // is P = a F + (s / J) cof(F), since F C^-1 = F^-T = cof(F) / J: the same
+      // stress without forming C, its inverse or the product F S (half the flops).
+      const T cof00 = F11 * F22 - F12 * F21, cof01 = F12 * F20 - F10 * F22, cof02 = F10 * F21 - F11 * F20;
+      const T cof10 = F02 * F21 - F01 * F22, cof11 = F00 * F22 - F02 * F20, cof12 = F01 * F20 - F00 * F21;
+      const T cof20 = F01 * F12 - F02 * F11, cof21 = F02 * F10 - F00 * F12, cof22 = F00 * F11 - F01 * F10;
+      const T J = F00 * cof00 + F01 * cof01 + F02 * cof02;
+      const T trace_C = F00 * F00 + F01 * F01 + F02 * F02 + F10 * F10 + F11 * F11 + F12 * F12 + F20 * F20 +
+                        F21 * F21 + F22 * F22;
+      const T a = mu * InverseCubeRoot(J * J);
+      const T s = kappa * J * (J - 1) - a * trace_C * T(1.0 / 3.0);
+      // Scaled by the element volume, as the nodal forces need V0 P.
       const T v = V0[l];
-      const T P00 = v * (F00 * S00 + F01 * S01 + F02 * S02);
-      const T P01 = v * (F00 * S01 + F01 * S11 + F02 * S12);
-      const T P02 = v * (F00 * S02 + F01 * S12 + F02 * S22);
-      const T P10 = v * (F10 * S00 + F11 * S01 + F12 * S02);
-      const T P11 = v * (F10 * S01 + F11 * S11 + F12 * S12);
-      const T P12 = v * (F10 * S02 + F11 * S12 + F12 * S22);
-      const T P20 = v * (F20 * S00 + F21 * S01 + F22 * S02);
-      const T P21 = v * (F20 * S01 + F21 * S11 + F22 * S12);
-      const T P22 = v * (F20 * S02 + F21 * S12 + F22 * S22);
+      const T va = v * a, vs = v * s / J;
+      const T P00 = va * F00 + vs * cof00, P01 = va * F01 + vs * cof01, P02 = va * F02 + vs * cof02;
+      const T P10 = va * F10 + vs * cof10, P11 = va * F11 + vs * cof11, P12 = va * F12 + vs * cof12;
+      const T P20 = va * F20 + vs * cof20, P21 = va * F21 + vs * cof21, P22 = va * F22 + vs * cof22;
 
       // f_c = V0 P dN_c; corner 0 balances the other three.
       const T f1x = P00 * g1x + P01 * g1y + P02 * g1z;

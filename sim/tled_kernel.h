@@ -9,6 +9,7 @@ namespace dg::sim {
 //   F = I + sum_a u_a (x) dN_a/dX,  C = F^T F,  J = det F,
 //   S = mu J^(-2/3) (I - tr(C)/3 C^-1) + kappa J (J - 1) C^-1,
 //   f_a = V0 F S dN_a/dX                        (the "t0F" of paper eq. 3),
+// evaluated as F S = mu J^(-2/3) F + (kappa (J - 1) - mu J^(-5/3) tr(C)/3) cof(F),
 // written to the element-major array `forces` ([block][corner][xyz][lane]).
 // Returns the smallest J in those blocks (padding lanes have J = 1).
 // Touches only its own blocks' part of `forces`: blocks may run in parallel.

@@ -4,6 +4,7 @@
 #include <catch2/catch.hpp>
 
 #include "sim/error.h"
+#include "tests/sim/box_mesh.h"
 
 namespace dg::sim {
 namespace {
@@ -65,6 +66,40 @@ TEST_CASE("tet_mesh: boundary faces of a cube", "[sim][unit]") {
   REQUIRE(BoundaryNodes(mesh).size() == 8);
   REQUIRE(NodesNearPlane(mesh, {0, 0, 0}, {0, 0, 1}, 1e-9) == std::vector<int>{0, 1, 2, 3});
   REQUIRE(NodesInBox(mesh, {0.5, -1, -1}, {2, 2, 2}, 0) == std::vector<int>{1, 3, 5, 7});
+}
+
+}  // namespace dg::sim
+
+namespace dg::sim {
+
+// Renumbering is a permutation: positions, elements (as point sets) and node
+// sets describe the same mesh, and neighbours in space become neighbours in memory.
+TEST_CASE("tet_mesh: Morton renumbering keeps the mesh and improves locality", "[sim][unit]") {
+  TetMesh mesh = testing::MakeBoxMesh(8, 8, 8, {0.01, 0.01, 0.01}, 0.2);
+  // Scramble first so that the test does not depend on the generator's order.
+  std::vector<int> scramble(mesh.num_nodes());
+  for (int a = 0; a < mesh.num_nodes(); ++a) scramble[a] = (a * 7919) % mesh.num_nodes();
+  TetMesh scrambled = mesh;
+  for (int a = 0; a < mesh.num_nodes(); ++a) scrambled.X_m.col(scramble[a]) = mesh.X_m.col(a);
+  for (int e = 0; e < mesh.num_tets(); ++e) {
+    for (int c = 0; c < 4; ++c) scrambled.tets(c, e) = scramble[mesh.tets(c, e)];
+  }
+  auto spread = [](const TetMesh& m) {  // mean node-id range within an element
+    double sum = 0;
+    for (int e = 0; e < m.num_tets(); ++e) sum += m.tets.col(e).maxCoeff() - m.tets.col(e).minCoeff();
+    return sum / m.num_tets();
+  };
+  TetMesh renumbered = scrambled;
+  const std::vector<int> new_id = RenumberNodesForLocality(&renumbered);
+  for (int a = 0; a < mesh.num_nodes(); ++a) REQUIRE(renumbered.X_m.col(new_id[a]) == scrambled.X_m.col(a));
+  for (int e = 0; e < mesh.num_tets(); ++e) {
+    for (int c = 0; c < 4; ++c) REQUIRE(renumbered.tets(c, e) == new_id[scrambled.tets(c, e)]);
+    REQUIRE(SixSignedVolume(renumbered, e) == Approx(SixSignedVolume(mesh, e)));
+  }
+  // Within half again of the grid's own lexicographic (banded) order, and far
+  // from the scrambled one (a quarter of it here: 115 against 91 and 472).
+  REQUIRE(spread(renumbered) < 1.5 * spread(mesh));
+  REQUIRE(spread(renumbered) < 0.3 * spread(scrambled));
 }
 
 }  // namespace dg::sim
