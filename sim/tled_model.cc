@@ -54,20 +54,16 @@ TledModel<T>::TledModel(const TetMesh& mesh, const Material& material)
     for (int c = 0; c < 4; ++c) mass_kg_[mesh_.tets(c, e)] += material_.density_kg_m3 * volume / 4.0;
   }
 
-  // Gather list in slot order, so each node sums its forces in a fixed order.
-  gather_begin_.assign(mesh_.num_nodes() + 1, 0);
-  for (int e = 0; e < E; ++e) {
-    for (int c = 0; c < 4; ++c) ++gather_begin_[mesh_.tets(c, e) + 1];
-  }
-  std::partial_sum(gather_begin_.begin(), gather_begin_.end(), gather_begin_.begin());
-  gather_offsets_.resize(gather_begin_.back());
-  std::vector<int32_t> next(gather_begin_.begin(), gather_begin_.end() - 1);
-  for (size_t slot = 0; slot < size_t(E); ++slot) {
+  // Gather list: each node's incidences in element order, a fixed summation order.
+  std::vector<int> slot_of_element(E);
+  for (int slot = 0; slot < E; ++slot) slot_of_element[order[slot]] = slot;
+  const NodeIncidence incidence = BuildNodeIncidence(mesh_);
+  gather_begin_.assign(incidence.offsets.begin(), incidence.offsets.end());
+  gather_offsets_.resize(incidence.elements.size());
+  for (size_t k = 0; k < incidence.elements.size(); ++k) {
+    const size_t slot = slot_of_element[incidence.elements[k]];
     const size_t b = slot / kLanes, l = slot % kLanes;
-    for (int c = 0; c < 4; ++c) {
-      const int node = nodes_[(b * 4 + c) * kLanes + l];
-      gather_offsets_[next[node]++] = static_cast<int32_t>((b * 12 + c * 3) * kLanes + l);
-    }
+    gather_offsets_[k] = static_cast<int32_t>((b * 12 + incidence.corners[k] * 3) * kLanes + l);
   }
   for (int a = 0; a < mesh_.num_nodes(); ++a) {
     if (mass_kg_[a] <= 0) {

@@ -313,3 +313,34 @@ TEST_CASE("tled solver: thread count does not change the result", "[sim][unit]")
 }
 
 }  // namespace dg::sim
+
+namespace dg::sim {
+
+// At rest under gravity and a point load, the supports carry exactly the
+// weight and the load (static equilibrium of the whole body).
+TEST_CASE("tled solver: supports carry weight and external load", "[sim][unit]") {
+  const TetMesh mesh = MakeBoxMesh(4, 4, 4, {0.01, 0.01, 0.01}, 0.25);
+  const Material material{3e3, 0.45, 1e3};
+  BoundaryConditions conditions;
+  for (int axis = 0; axis < 3; ++axis) {
+    for (int dof : Dofs(mesh.node_sets.at("zmin"), axis)) conditions.fixed_dofs.push_back(dof);
+  }
+  SolverOptions options;
+  options.gravity_m_s2 = {0, 0, -9.81};
+  options.damping_per_s = 400;
+  TledSolver<double> solver(std::make_shared<const TledModel<double>>(mesh, material), conditions, options);
+  std::vector<double> load(3 * mesh.num_nodes(), 0.0);
+  const int corner = NodesInBox(mesh, {0.01, 0.01, 0.01}, {0.01, 0.01, 0.01}, 1e-9).at(0);
+  load[3 * corner + 0] = 2e-3;
+  load[3 * corner + 2] = -1e-3;
+  solver.SetExternalForces(load);
+  solver.Advance(2000, {});  // 0.4 s: many relaxation times
+  Eigen::Vector3d support = Eigen::Vector3d::Zero();
+  for (int dof : conditions.fixed_dofs) support[dof % 3] += solver.reaction_forces()[dof];
+  const double weight = material.density_kg_m3 * 1e-6 * 9.81;
+  REQUIRE(support.x() == Approx(-2e-3).epsilon(1e-6));
+  REQUIRE(support.y() == Approx(0).margin(1e-9));
+  REQUIRE(support.z() == Approx(weight + 1e-3).epsilon(1e-6));
+}
+
+}  // namespace dg::sim

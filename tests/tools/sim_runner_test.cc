@@ -89,4 +89,36 @@ output_every_s: 0.005
   REQUIRE(std::filesystem::exists(out + "/sim.xmf"));
 }
 
+// A problem may name any Gmsh file (in mm) and select its nodes geometrically;
+// at the end the fixed nodes are at rest and the selected top nodes at their target.
+TEST_CASE("sim runner: problem on a .msh file with plane and box selections", "[tools][unit]") {
+  const std::string problem_text = R"(mesh:
+  file: )" + std::string(DG_SOURCE_DIR) + R"(/tests/io/fixtures/box_with_hole_v41.msh
+  units: mm
+fixed:
+  - plane: {point_m: [0, 0, 0], normal: [0, 0, 1], tolerance_m: 1.0e-6}
+prescribed:
+  - name: lid
+    box: {lo_m: [0, 0, 0.02], hi_m: [0.04, 0.03, 0.02], tolerance_m: 1.0e-6}
+    axes: z
+    displacement_m: [0, 0, -0.0002]
+    ramp_s: 0.02
+duration_s: 0.05
+)";
+  const io::SimProblem problem = io::ParseSimProblem(problem_text, "hole.yaml", ".");
+  const sim::TetMesh mesh = io::LoadProblemMesh(problem.mesh);
+  SimRunOptions options;
+  options.write_output = false;
+  options.progress = false;
+  const SimSummary summary = RunSimProblem(problem, mesh, options);
+  REQUIRE(summary.steps == 250);
+  for (int a = 0; a < mesh.num_nodes(); ++a) {
+    const double z = mesh.X_m(2, a);
+    if (z < 1e-9) REQUIRE(summary.final_displacement_m.col(a).norm() == 0);
+    if (z > 0.02 - 1e-9) REQUIRE(summary.final_displacement_m(2, a) == Approx(-0.0002).epsilon(1e-6));
+  }
+  REQUIRE(summary.reactions_n.at(0).first == "lid");
+  REQUIRE(summary.reactions_n.at(0).second.z() < 0);
+}
+
 }  // namespace dg::tools
