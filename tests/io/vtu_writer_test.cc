@@ -12,26 +12,11 @@
 #include <catch2/catch.hpp>
 
 #include "sim/error.h"
+#include "tests/io/two_tets.h"
 #include "tests/io/xml_well_formed.h"
 
 namespace dg::io {
 namespace {
-
-// Two tetrahedra sharing the face (1, 2, 3).
-sim::TetMesh TwoTets() {
-  sim::TetMesh mesh;
-  mesh.source = "two tets";
-  mesh.X_m.resize(3, 5);
-  mesh.X_m << 0, 1, 0, 0, 1,  //
-      0, 0, 1, 0, 1,          //
-      0, 0, 0, 1, 1;
-  mesh.tets.resize(4, 2);
-  mesh.tets << 0, 1,  //
-      1, 3,           //
-      2, 2,           //
-      3, 4;
-  return mesh;
-}
 
 // What the test's own parse of a .vtu found: each DataArray's attributes, the
 // section it sits in, and its appended bytes.
@@ -108,7 +93,7 @@ std::vector<double> ColumnMajor(const Eigen::MatrixXd& m) {
 // A written .vtu is well-formed XML around its raw data, and an independent
 // parse reads back the points, cells, displacement and fields exactly.
 TEST_CASE("vtu_writer: round trip through an independent parse", "[io][unit]") {
-  const sim::TetMesh mesh = TwoTets();
+  const sim::TetMesh mesh = testing::TwoTets();
   Eigen::Matrix3Xd displacement = Eigen::Matrix3Xd::Random(3, 5) * 1e-3;
   MeshFields fields;
   fields.point_data.emplace_back("temperature_K", Eigen::RowVectorXd::LinSpaced(5, 300, 304));
@@ -153,7 +138,7 @@ TEST_CASE("vtu_writer: round trip through an independent parse", "[io][unit]") {
 // Without a displacement no displacement array is written.
 TEST_CASE("vtu_writer: displacement is optional", "[io][unit]") {
   const std::string path = std::string(DG_BINARY_DIR) + "/vtu_writer_test_plain.vtu";
-  WriteVtu(path, TwoTets(), nullptr, {});
+  WriteVtu(path, testing::TwoTets(), nullptr, {});
   const ParsedVtu vtu = ParseVtu(path);
   REQUIRE(testing::XmlProblem(vtu.xml) == "");
   REQUIRE(vtu.arrays.count("displacement_m") == 0);
@@ -162,7 +147,7 @@ TEST_CASE("vtu_writer: displacement is optional", "[io][unit]") {
 
 // Wrongly sized or misnamed fields and an unwritable path are refused by name.
 TEST_CASE("vtu_writer: bad input is refused", "[io][unit]") {
-  const sim::TetMesh mesh = TwoTets();
+  const sim::TetMesh mesh = testing::TwoTets();
   const std::string path = std::string(DG_BINARY_DIR) + "/vtu_writer_test_bad.vtu";
   MeshFields wrong_size;
   wrong_size.cell_data.emplace_back("J", Eigen::RowVector3d(1, 1, 1));

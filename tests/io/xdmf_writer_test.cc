@@ -13,25 +13,11 @@
 #include <hdf5.h>
 
 #include "sim/error.h"
+#include "tests/io/two_tets.h"
 #include "tests/io/xml_well_formed.h"
 
 namespace dg::io {
 namespace {
-
-sim::TetMesh TwoTets() {
-  sim::TetMesh mesh;
-  mesh.source = "two tets";
-  mesh.X_m.resize(3, 5);
-  mesh.X_m << 0, 1, 0, 0, 1,  //
-      0, 0, 1, 0, 1,          //
-      0, 0, 0, 1, 1;
-  mesh.tets.resize(4, 2);
-  mesh.tets << 0, 1,  //
-      1, 3,           //
-      2, 2,           //
-      3, 4;
-  return mesh;
-}
 
 // Displacement of step k: distinct values so a mixed-up step or node shows.
 Eigen::Matrix3Xd Displacement(int k) {
@@ -103,7 +89,7 @@ std::string OutputStem(const std::string& name) {
 // times, and at each step the displacement and fields at the dataset paths
 // the well-formed .xmf names.
 TEST_CASE("xdmf_writer: series reads back through HDF5 and the xmf", "[io][unit]") {
-  const sim::TetMesh mesh = TwoTets();
+  const sim::TetMesh mesh = testing::TwoTets();
   const std::string stem = OutputStem("xdmf_writer_test");
   const std::vector<double> times = {0.0, 0.0125, 0.5};
   {
@@ -163,15 +149,11 @@ TEST_CASE("xdmf_writer: series reads back through HDF5 and the xmf", "[io][unit]
                         Catch::Contains("AttributeType=\"Tensor\""));
 }
 
-// A writer destroyed without Close() leaves complete = 0 and both files
-// readable with the steps appended so far.
-TEST_CASE("xdmf_writer: unclosed writer leaves a readable, incomplete series", "[io][unit]") {
-  const std::string stem = OutputStem("xdmf_writer_test_unclosed");
-  {
-    XdmfTimeSeriesWriter writer(stem, TwoTets());
-    writer.Append(0.1, Displacement(1), {});
-    writer.Append(0.2, Displacement(2), {});
-  }
+namespace {
+
+// The series that the next two tests leave: two steps (t = 0.1, 0.2 s) that
+// read back through HDF5 and the .xmf, and complete = 0.
+void RequireIncompleteTwoStepSeries(const std::string& stem) {
   H5File file(stem + ".h5");
   REQUIRE(file.RootIntAttribute("complete") == 0);
   std::vector<hsize_t> dims;
@@ -182,6 +164,20 @@ TEST_CASE("xdmf_writer: unclosed writer leaves a readable, incomplete series", "
   const std::string xmf = ReadText(stem + ".xmf");
   REQUIRE(testing::XmlProblem(xmf) == "");
   REQUIRE(Matches(xmf, R"re(<Time Value="([^"]+)"/>)re").size() == 2);
+}
+
+}  // namespace
+
+// A writer destroyed without Close() leaves complete = 0 and both files
+// readable with the steps appended so far.
+TEST_CASE("xdmf_writer: unclosed writer leaves a readable, incomplete series", "[io][unit]") {
+  const std::string stem = OutputStem("xdmf_writer_test_unclosed");
+  {
+    XdmfTimeSeriesWriter writer(stem, testing::TwoTets());
+    writer.Append(0.1, Displacement(1), {});
+    writer.Append(0.2, Displacement(2), {});
+  }
+  RequireIncompleteTwoStepSeries(stem);
 }
 
 // A process that dies after two appends, without any destructor running,
@@ -191,7 +187,7 @@ TEST_CASE("xdmf_writer: a killed run leaves a readable series", "[io][unit]") {
   const pid_t child = fork();
   REQUIRE(child >= 0);
   if (child == 0) {
-    XdmfTimeSeriesWriter writer(stem, TwoTets());
+    XdmfTimeSeriesWriter writer(stem, testing::TwoTets());
     writer.Append(0.1, Displacement(1), {});
     writer.Append(0.2, Displacement(2), {});
     _exit(0);
@@ -199,22 +195,13 @@ TEST_CASE("xdmf_writer: a killed run leaves a readable series", "[io][unit]") {
   int status = 0;
   REQUIRE(waitpid(child, &status, 0) == child);
   REQUIRE(WIFEXITED(status));
-  H5File file(stem + ".h5");
-  REQUIRE(file.RootIntAttribute("complete") == 0);
-  std::vector<hsize_t> dims;
-  REQUIRE(file.Read("/time_s", &dims) == std::vector<double>{0.1, 0.2});
-  const Eigen::Matrix3Xd u = Displacement(2);
-  REQUIRE(file.Read("/steps/000001/displacement_m", &dims) ==
-          std::vector<double>(u.data(), u.data() + u.size()));
-  const std::string xmf = ReadText(stem + ".xmf");
-  REQUIRE(testing::XmlProblem(xmf) == "");
-  REQUIRE(Matches(xmf, R"re(<Time Value="([^"]+)"/>)re").size() == 2);
+  RequireIncompleteTwoStepSeries(stem);
 }
 
 // Before any step the .xmf already shows the mesh, and Close(false) marks it incomplete.
 TEST_CASE("xdmf_writer: no steps still gives a readable mesh", "[io][unit]") {
   const std::string stem = OutputStem("xdmf_writer_test_empty");
-  XdmfTimeSeriesWriter writer(stem, TwoTets());
+  XdmfTimeSeriesWriter writer(stem, testing::TwoTets());
   const std::string xmf = ReadText(stem + ".xmf");
   REQUIRE(testing::XmlProblem(xmf) == "");
   REQUIRE_THAT(xmf, Catch::Contains("TopologyType=\"Tetrahedron\""));
@@ -224,9 +211,9 @@ TEST_CASE("xdmf_writer: no steps still gives a readable mesh", "[io][unit]") {
 
 // Size mismatches, times that do not increase and an impossible path are refused.
 TEST_CASE("xdmf_writer: bad input is refused", "[io][unit]") {
-  REQUIRE_THROWS_WITH(XdmfTimeSeriesWriter("/nonexistent_dir/run", TwoTets()),
+  REQUIRE_THROWS_WITH(XdmfTimeSeriesWriter("/nonexistent_dir/run", testing::TwoTets()),
                       Catch::Contains("directory does not exist"));
-  XdmfTimeSeriesWriter writer(OutputStem("xdmf_writer_test_bad"), TwoTets());
+  XdmfTimeSeriesWriter writer(OutputStem("xdmf_writer_test_bad"), testing::TwoTets());
   REQUIRE_THROWS_WITH(writer.Append(0.0, Eigen::Matrix3Xd::Zero(3, 4), {}),
                       Catch::Contains("4 columns for 5 nodes"));
   MeshFields wrong_size;
