@@ -301,6 +301,53 @@ sim::TetMesh MeshEllipsoid(const EllipsoidSpec& spec, MeshReport* report) {
   }, report);
 }
 
+std::string TruncatedEllipsoidSpec::Validate() const {
+  if (std::string problem = ValidateCommon(semi_axes_m, "semi_axes_m", target_tets); !problem.empty()) {
+    return problem;
+  }
+  if (!(std::abs(centre_height_m) < semi_axes_m.z())) {
+    return "centre_height_m must lie within (-c, c) so that the plane z = 0 cuts the ellipsoid";
+  }
+  return {};
+}
+
+double TruncatedEllipsoidSpec::Volume_m3() const {
+  // pi a b times the integral of (1 - z^2/c^2) over the kept part, z from -h to c.
+  const double a = semi_axes_m.x(), b = semi_axes_m.y(), c = semi_axes_m.z(), h = centre_height_m;
+  return std::numbers::pi * a * b * ((c + h) - (c * c * c + h * h * h) / (3 * c * c));
+}
+
+sim::TetMesh MeshTruncatedEllipsoid(const TruncatedEllipsoidSpec& spec, MeshReport* report) {
+  const std::string where = fmt::format("Gmsh ellipsoid semi-axes {} centred {:.1f} mm above z = 0, target {} tets",
+                                        Dims(spec.semi_axes_m), spec.centre_height_m * 1e3, spec.target_tets);
+  if (std::string problem = spec.Validate(); !problem.empty()) {
+    throw Error("invalid truncated ellipsoid: " + problem, where, "correct the spec");
+  }
+  const Eigen::Vector3d axes = spec.semi_axes_m;
+  const double h = spec.centre_height_m;
+  return MeshSolid(where, spec.Volume_m3(), spec.target_tets, [axes, h] {
+    const int ellipsoid = gmsh::model::occ::addSphere(0, 0, h, 1.0);
+    gmsh::model::occ::dilate({{3, ellipsoid}}, 0, 0, h, axes.x(), axes.y(), axes.z());
+    const double reach = 2 * axes.maxCoeff() + std::abs(h);
+    const int half_space = gmsh::model::occ::addBox(-reach, -reach, 0, 2 * reach, 2 * reach, 2 * reach);
+    gmsh::vectorpair kept;
+    std::vector<gmsh::vectorpair> map;
+    gmsh::model::occ::intersect({{3, ellipsoid}}, {{3, half_space}}, kept, map);
+    gmsh::model::occ::synchronize();
+    gmsh::vectorpair surfaces;
+    gmsh::model::getBoundary(kept, surfaces, /*combined=*/true, /*oriented=*/false);
+    std::vector<int> curved, base;
+    for (const auto& [dim, tag] : surfaces) {
+      double x0, y0, z0, x1, y1, z1;
+      gmsh::model::getBoundingBox(dim, tag, x0, y0, z0, x1, y1, z1);
+      (z1 < 1e-3 * reach ? base : curved).push_back(tag);  // OCC pads bounding boxes loosely
+    }
+    AddPhysicalGroup(2, curved, "surface");
+    AddPhysicalGroup(2, base, "base");
+    AddPhysicalGroup(3, {kept.at(0).second}, "body");
+  }, report);
+}
+
 void WriteMsh(const sim::TetMesh& mesh, const std::string& path, int version) {
   if (version != 22 && version != 41) {
     throw Error("unsupported .msh version " + std::to_string(version), path,

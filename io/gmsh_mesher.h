@@ -34,6 +34,18 @@ struct EllipsoidSpec {
   std::string Validate() const;  // empty when valid, else what is wrong
 };
 
+// An ellipsoid with its centre at height centre_height_m above the plane z = 0,
+// cut by that plane and standing on it: a solid organ on a flat mount. Node
+// sets "surface" (the curved surface), "base" (the flat face on z = 0) and
+// "body"; element set "body". @pre |centre_height_m| < semi_axes_m.z().
+struct TruncatedEllipsoidSpec {
+  Eigen::Vector3d semi_axes_m{0.022, 0.018, 0.03};
+  double centre_height_m = 0.018;
+  int target_tets = 8000;
+  std::string Validate() const;  // empty when valid, else what is wrong
+  double Volume_m3() const;      // analytic volume of the cut ellipsoid
+};
+
 // How a mesh came out, for logs and command summaries.
 struct MeshReport {
   double element_size_m = 0;     // Gmsh's characteristic length on the pass kept
@@ -54,6 +66,7 @@ inline constexpr int kMaxPasses = 4;
 // @throws dg::Error for an invalid spec, or naming the spec when Gmsh fails.
 sim::TetMesh MeshBox(const BoxSpec& spec, MeshReport* report = nullptr);
 sim::TetMesh MeshEllipsoid(const EllipsoidSpec& spec, MeshReport* report = nullptr);
+sim::TetMesh MeshTruncatedEllipsoid(const TruncatedEllipsoidSpec& spec, MeshReport* report = nullptr);
 
 // Writes a Gmsh ASCII mesh, format 2.2 (version = 22) or 4.1 (version = 41),
 // that Gmsh and ParaView open: node i is written with tag i + 1 and element e

@@ -275,3 +275,32 @@ TEST_CASE("gmsh_mesher: WriteMsh errors name the problem", "[io][unit]") {
 }
 
 }  // namespace dg::io
+
+namespace dg::io {
+
+// The organ-on-a-mount solid: its volume is the analytic cut-ellipsoid volume
+// (the flat base exactly, the curved part within the discretisation), its base
+// lies on z = 0 and its curved surface on the ellipsoid.
+TEST_CASE("gmsh_mesher: truncated ellipsoid stands on z = 0", "[io][unit]") {
+  const TruncatedEllipsoidSpec spec;
+  const sim::TetMesh mesh = MeshTruncatedEllipsoid(spec);
+  REQUIRE(mesh.num_tets() == Approx(spec.target_tets).epsilon(kTetCountTolerance));
+  double volume = 0;
+  for (int e = 0; e < mesh.num_tets(); ++e) {
+    const double six = sim::SixSignedVolume(mesh, e);
+    REQUIRE(six > 0);
+    volume += six / 6;
+  }
+  // Inscribed in the curved surface: a little short of the analytic volume (see the ellipsoid test).
+  REQUIRE(volume < spec.Volume_m3());
+  REQUIRE(volume > 0.97 * spec.Volume_m3());
+  for (int a : mesh.node_sets.at("base")) REQUIRE(std::abs(mesh.X_m(2, a)) < 1e-12);  // OCC round-off
+  const Eigen::Vector3d centre(0, 0, spec.centre_height_m);
+  for (int a : mesh.node_sets.at("surface")) {
+    const Eigen::Vector3d p = (mesh.X_m.col(a) - centre).cwiseQuotient(spec.semi_axes_m);
+    REQUIRE(p.norm() == Approx(1.0).epsilon(1e-6));
+  }
+  REQUIRE(mesh.X_m.row(2).minCoeff() > -1e-12);
+}
+
+}  // namespace dg::io
