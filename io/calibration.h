@@ -47,9 +47,10 @@ struct StereoCalibration {
 // @throws dg::Error when the file cannot be written.
 void WriteStereoCalibration(const std::string& path, const StereoCalibration& calibration);
 
-// Reads that format (also the files OpenCV's stereo_calib sample writes, which
-// keep the intrinsics and extrinsics in the same keys; image_size may be given
-// as [w, h]). @throws dg::Error naming the file and the missing or malformed key.
+// Reads that format (image_size may be given as [w, h]; E and F are
+// recomputed from the other keys). OpenCV's stereo_calib sample splits its
+// results into intrinsics.yml (M1 D1 M2 D2) and extrinsics.yml: those are not read.
+// @throws dg::Error naming the file and the missing or malformed key.
 StereoCalibration ReadStereoCalibration(const std::string& path);
 
 }  // namespace dg::io

@@ -87,6 +87,14 @@ Handle CreatingParents(const std::string& where) {
   return properties;
 }
 
+// Object creation properties without modification times: HDF5 stamps each
+// object with the clock by default, so the same data would give different bytes.
+Handle Untimed(hid_t property_class, const std::string& where) {
+  Handle properties(Checked(H5Pcreate(property_class), "create properties", where), H5Pclose);
+  Checked(H5Pset_obj_track_times(properties.get(), 0), "set properties", where);
+  return properties;
+}
+
 bool Exists(hid_t file, const std::string& object) {
   if (object == "/") return true;
   // H5Lexists fails, rather than answering false, when a parent is missing,
@@ -190,8 +198,9 @@ Handle CreateDataset(hid_t file, const std::string& dataset, hid_t type, const H
   }
   const Handle space = Dataspace(shape, where);
   const Handle links = CreatingParents(where);
+  const Handle creation = Untimed(H5P_DATASET_CREATE, where);
   return Handle(Checked(H5Dcreate2(file, dataset.c_str(), type, space.get(), links.get(),
-                                   H5P_DEFAULT, H5P_DEFAULT),
+                                   creation.get(), H5P_DEFAULT),
                         "create the dataset", where),
                 H5Dclose);
 }
@@ -266,7 +275,8 @@ void H5Writer::CreateGroup(const std::string& group) {
   RequireAbsolute(group, where);
   if (Exists(file_, group)) return;
   const Handle links = CreatingParents(where);
-  Handle created(Checked(H5Gcreate2(file_, group.c_str(), links.get(), H5P_DEFAULT, H5P_DEFAULT),
+  const Handle creation = Untimed(H5P_GROUP_CREATE, where);
+  Handle created(Checked(H5Gcreate2(file_, group.c_str(), links.get(), creation.get(), H5P_DEFAULT),
                          "create the group", where),
                  H5Gclose);
 }

@@ -11,5 +11,6 @@ namespace dg::tools {
 void AddSimCommand(CLI::App& app);
 void AddBenchCommand(CLI::App& app);
 void AddMeshCommand(CLI::App& app);
+void AddPhantomCommand(CLI::App& app);
 
 }  // namespace dg::tools

@@ -13,6 +13,7 @@ int main(int argc, char** argv) {
   dg::tools::AddSimCommand(app);
   dg::tools::AddBenchCommand(app);
   dg::tools::AddMeshCommand(app);
+  dg::tools::AddPhantomCommand(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -1,0 +1,63 @@
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+#include <Eigen/Core>
+
+#include "sim/material.h"
+
+namespace dg::tools::phantom {
+
+// Everything `dynaguide phantom` makes is set here; a preset fills it and
+// command-line options override single fields. Lengths in metres, times in seconds.
+struct PhantomSpec {
+  std::string preset = "default";
+  uint64_t seed = 1;
+
+  // Geometry: an ellipsoid standing on the mount plane z = 0 of the scan frame S.
+  Eigen::Vector3d semi_axes_m{0.022, 0.018, 0.030};
+  double centre_height_m = 0.018;
+  int tets = 8000;
+
+  // Motion (see heart_motion.h): the nominal cycle and its cycle-to-cycle variation.
+  double heart_rate_bpm = 90;
+  double radial_contraction = 0.12;     // fractional radius change at the top at peak systole
+  double twist_rad = 0.15;              // twist about the long axis at the top at peak systole
+  double longitudinal_shortening = 0.08;
+  Eigen::Vector2d sway_m{0.0015, 0.0010};
+  double amplitude_variation = 0.06;    // standard deviation of each cycle's amplitude factor
+  double period_variation = 0.04;       // standard deviation of each cycle's period factor
+
+  // Preoperative 4D CT of the nominal cycle.
+  int phases = 20;
+  double voxel_m = 1.0e-3;
+  double ct_noise_hu = 15;
+  int fiducials = 6;
+
+  // Stereo endoscope and video.
+  int width = 640, height = 480;
+  double fps = 30;
+  double duration_s = 3.5;              // at 90 bpm: over five cycles
+  double baseline_m = 0.005;
+  double working_distance_m = 0.060;
+  double sensor_noise = 2.0;            // standard deviation, 8-bit grey levels
+  int supersample = 2;
+  int chessboard_pairs = 16;
+
+  // The tissue model a scene simulates with.
+  sim::Material material{3.0e3, 0.45, 1.0e3};
+
+  double period_s() const { return 60.0 / heart_rate_bpm; }
+  double height_m() const { return centre_height_m + semi_axes_m.z(); }
+
+  // Empty when valid; otherwise which field is wrong and why.
+  std::string Validate() const;
+};
+
+// "default", "tiny" (small images and mesh, 1 s: for tests), "stiff" (a stiffer,
+// nearly incompressible material) or "extreme" (large, fast motion).
+// @throws dg::Error for an unknown name, listing the known ones.
+PhantomSpec PresetSpec(const std::string& name);
+
+}  // namespace dg::tools::phantom
