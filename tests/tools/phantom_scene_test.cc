@@ -13,6 +13,7 @@
 #include <gmsh.h>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/videoio.hpp>
 
@@ -262,6 +263,60 @@ void CheckMeshInGmsh() {
   REQUIRE(found_base);
 }
 
+// OpenCV finds the chessboard in every calibration image, and its refined
+// corners lie where the true board pose and the true cameras put them.
+void CheckChessboards() {
+  cv::Mat R, T;
+  const auto [left, right] = ReadCalibration(DefaultScene() + "/calibration.yaml", &R, &T);
+  const io::H5Reader truth(DefaultScene() + "/truth.h5");
+  io::H5Shape shape;
+  const std::vector<double> poses = truth.Read<double>("/calibration/T_C_B", &shape);
+  const Eigen::MatrixXd corners_B = truth.ReadMatrix("/calibration/inner_corners_B_m");
+  std::vector<double> errors;
+  for (size_t b = 0; b < shape[0]; ++b) {
+    cv::Mat T_C_B(4, 4, CV_64F, const_cast<double*>(&poses[16 * b]));
+    for (const std::string eye : {"left", "right"}) {
+      char name[64];
+      std::snprintf(name, sizeof name, "/calibration/%s_%02zu.png", eye.c_str(), b);
+      const cv::Mat image = cv::imread(DefaultScene() + name, cv::IMREAD_GRAYSCALE);
+      std::vector<cv::Point2f> found;
+      INFO(name);
+      REQUIRE(cv::findChessboardCorners(image, cv::Size(9, 6), found));
+      cv::cornerSubPix(image, found, cv::Size(5, 5), cv::Size(-1, -1),
+                       cv::TermCriteria(cv::TermCriteria::EPS + cv::TermCriteria::COUNT, 50, 1e-4));
+      cv::Mat pose = T_C_B.clone();
+      if (eye == "right") {
+        cv::Mat T_R_C = cv::Mat::eye(4, 4, CV_64F);
+        R.copyTo(T_R_C(cv::Rect(0, 0, 3, 3)));
+        T.reshape(1, 3).copyTo(T_R_C(cv::Rect(3, 0, 1, 3)));
+        pose = T_R_C * T_C_B;
+      }
+      std::vector<cv::Point3d> points;
+      for (Eigen::Index k = 0; k < corners_B.rows(); ++k) {
+        cv::Mat p = pose * (cv::Mat_<double>(4, 1) << corners_B(k, 0), corners_B(k, 1), corners_B(k, 2), 1);
+        points.emplace_back(p.at<double>(0), p.at<double>(1), p.at<double>(2));
+      }
+      std::vector<cv::Point2d> projected;
+      const Eye& camera = eye == "left" ? left : right;
+      cv::projectPoints(points, cv::Vec3d(0, 0, 0), cv::Vec3d(0, 0, 0), camera.K, camera.D, projected);
+      // Detection order may start from either end of the board.
+      double forward = 0, backward = 0;
+      const size_t n = found.size();
+      for (size_t k = 0; k < n; ++k) {
+        forward += cv::norm(cv::Point2d(found[k]) - projected[k]);
+        backward += cv::norm(cv::Point2d(found[k]) - projected[n - 1 - k]);
+      }
+      for (size_t k = 0; k < n; ++k) {
+        errors.push_back(cv::norm(cv::Point2d(found[k]) - projected[forward <= backward ? k : n - 1 - k]));
+      }
+    }
+  }
+  std::sort(errors.begin(), errors.end());
+  INFO("corner error median " << errors[errors.size() / 2] << " px, max " << errors.back() << " px");
+  REQUIRE(errors[errors.size() / 2] < 0.1);
+  REQUIRE(errors.back() < 0.5);
+}
+
 }  // namespace
 
 // One process generates the default scene once (half a second of video) and
@@ -272,6 +327,7 @@ TEST_CASE("phantom: default scene agrees with independent measurements", "[tools
   SECTION("marker centroids found in the frames match the 2D truth") { CheckMarkerCentroids(); }
   SECTION("CT bead centroids match the per-phase fiducials") { CheckBeadCentroids(); }
   SECTION("Gmsh reads the mesh oriented, its fixed group on the mount") { CheckMeshInGmsh(); }
+  SECTION("OpenCV finds every chessboard where the true pose puts it") { CheckChessboards(); }
 }
 
 namespace {

@@ -19,7 +19,8 @@ struct PhantomArguments {
   std::string preset = "default";
   uint64_t seed = 1;
   double heart_rate_bpm = 0, duration_s = 0, fps = 0;
-  int phases = 0, tets = 0, threads = 0;
+  int phases = 0, tets = 0, threads = 0, fiducials = 0;
+  double baseline_m = 0, distance_m = 0, noise = -1, voxel_m = 0;
   std::string size;
   bool quiet = false;
 };
@@ -32,6 +33,11 @@ void RunPhantomCommand(const PhantomArguments& args) {
   if (args.fps > 0) spec.fps = args.fps;
   if (args.phases > 0) spec.phases = args.phases;
   if (args.tets > 0) spec.tets = args.tets;
+  if (args.fiducials > 0) spec.fiducials = args.fiducials;
+  if (args.baseline_m > 0) spec.baseline_m = args.baseline_m;
+  if (args.distance_m > 0) spec.working_distance_m = args.distance_m;
+  if (args.noise >= 0) spec.sensor_noise = args.noise;
+  if (args.voxel_m > 0) spec.voxel_m = args.voxel_m;
   if (!args.size.empty()) {
     std::smatch match;
     if (!std::regex_match(args.size, match, std::regex(R"((\d+)x(\d+))"))) {
@@ -62,6 +68,11 @@ void AddPhantomCommand(CLI::App& app) {
   command->add_option("--duration", args->duration_s, "Video length, seconds (preset: 3.5)");
   command->add_option("--size", args->size, "Video size WIDTHxHEIGHT (preset: 640x480)");
   command->add_option("--fps", args->fps, "Video frame rate (preset: 30)");
+  command->add_option("--fiducials", args->fiducials, "Fiducial beads and markers, at least 5 (preset: 6)");
+  command->add_option("--baseline", args->baseline_m, "Stereo baseline, metres (preset: 0.005)");
+  command->add_option("--distance", args->distance_m, "Working distance to the surface, metres (preset: 0.06)");
+  command->add_option("--noise", args->noise, "Sensor noise, standard deviation in grey levels (preset: 2)");
+  command->add_option("--voxel", args->voxel_m, "CT voxel size, metres (preset: 0.001)");
   command->add_option("--threads", args->threads, "Worker threads (default: all cores)")->check(CLI::PositiveNumber);
   command->add_flag("--quiet", args->quiet, "No progress lines");
   command->callback([args] { RunPhantomCommand(*args); });
