@@ -7,8 +7,7 @@
 #include <type_traits>
 #include <utility>
 
-#include <hdf5.h>
-
+#include "io/h5_handle.h"
 #include "sim/error.h"
 
 namespace dg::io {
@@ -16,32 +15,10 @@ namespace {
 
 static_assert(std::is_same_v<hid_t, std::int64_t>, "the headers keep hid_t as std::int64_t");
 
-constexpr char kWriteFix[] = "check that the directory is writable and has free space";
+constexpr const char* kWriteFix = h5::kWriteFix;
 
-// Closes an HDF5 identifier at the end of its scope.
-class Handle {
- public:
-  Handle(hid_t id, herr_t (*close)(hid_t)) : id_(id), close_(close) {}
-  ~Handle() {
-    if (id_ >= 0) close_(id_);
-  }
-  Handle(Handle&& other) noexcept : id_(std::exchange(other.id_, -1)), close_(other.close_) {}
-  Handle(const Handle&) = delete;
-  Handle& operator=(const Handle&) = delete;
-  hid_t get() const { return id_; }
-
- private:
-  hid_t id_;
-  herr_t (*close_)(hid_t);
-};
-
-// HDF5 calls return a negative identifier or status on failure.
-template <typename Status>
-Status Checked(Status status, const std::string& what, const std::string& where,
-               const std::string& fix = kWriteFix) {
-  if (status < 0) throw Error("HDF5 could not " + what, where, fix);
-  return status;
-}
+using h5::Checked;
+using h5::Handle;
 
 std::string Where(const std::string& path, const std::string& object) {
   return path + ":" + object;

@@ -8,36 +8,17 @@
 #include <sstream>
 #include <vector>
 
-#include <hdf5.h>
-
+#include "io/h5_handle.h"
 #include "sim/error.h"
 #include "sim/log.h"
 
 namespace dg::io {
 namespace {
 
-constexpr char kFix[] = "check that the directory is writable and has free space";
+constexpr const char* kFix = h5::kWriteFix;
 
-// Closes an HDF5 identifier at the end of its scope.
-class Handle {
- public:
-  Handle(hid_t id, herr_t (*close)(hid_t)) : id_(id), close_(close) {}
-  ~Handle() { close_(id_); }
-  Handle(const Handle&) = delete;
-  Handle& operator=(const Handle&) = delete;
-  hid_t get() const { return id_; }
-
- private:
-  hid_t id_;
-  herr_t (*close_)(hid_t);
-};
-
-// HDF5 calls return a negative identifier or status on failure.
-template <typename Status>
-Status Checked(Status status, const std::string& what, const std::string& where) {
-  if (status < 0) throw Error("HDF5 could not " + what, where, kFix);
-  return status;
-}
+using h5::Checked;
+using h5::Handle;
 
 // A matrix with one column per node or element is, in memory, the row-major
 // (rows x components) array XDMF reads; a scalar field is stored 1-D.
