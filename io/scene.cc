@@ -1,0 +1,136 @@
+#include "io/scene.h"
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <regex>
+#include <sstream>
+
+#include "io/units.h"
+#include "io/yaml_map.h"
+#include "sim/error.h"
+
+namespace dg::io {
+namespace {
+
+namespace fs = std::filesystem;
+
+// The absolute path of a file named at `key`, which must exist.
+std::string ExistingFile(const YamlMap& map, const std::string& key, const fs::path& directory,
+                         const std::string& relative) {
+  const fs::path resolved = (directory / relative).lexically_normal();
+  if (!fs::exists(resolved)) {
+    throw Error("file not found: " + resolved.string(), map.Where(key),
+                "correct the path (relative paths are relative to the scene file)");
+  }
+  return resolved.string();
+}
+
+std::string File(const YamlMap& map, const std::string& key, const fs::path& directory) {
+  return ExistingFile(map, key, directory, map.String(key));
+}
+
+Scene::Preoperative ReadPreoperative(const YamlMap& map, const fs::path& directory) {
+  Scene::Preoperative preoperative;
+  preoperative.period_s = map.Number("period_s");
+  preoperative.phases = map.Integer("phases", 0);
+  if (!(preoperative.period_s > 0) || preoperative.phases < 2) {
+    throw Error("period_s must be positive and phases at least 2", map.Where(), "give the 4D scan's period and phase count");
+  }
+  preoperative.motion = File(map, "motion", directory);
+  if (map.Has("ct")) {
+    const std::string pattern = map.String("ct");
+    // The pattern reaches snprintf: allow exactly one integer conversion.
+    if (!std::regex_match(pattern, std::regex(R"(([^%]|%%)*%0?[0-9]*d([^%]|%%)*)"))) {
+      throw Error("'ct' must be a file pattern with one integer field, like ct/phase_%02d.mhd (got '" + pattern + "')",
+                  map.Where("ct"), "write the phase number as %d or %02d");
+    }
+    for (int k = 0; k < preoperative.phases; ++k) {
+      char name[1024];
+      std::snprintf(name, sizeof name, pattern.c_str(), k);
+      preoperative.ct_volumes.push_back(ExistingFile(map, "ct", directory, name));
+    }
+  }
+  map.RejectUnknown();
+  return preoperative;
+}
+
+Scene::Overlays ReadOverlays(const YamlMap& map, const fs::path& directory) {
+  Scene::Overlays overlays;
+  if (map.Has("surface_mesh")) overlays.surface_mesh = File(map, "surface_mesh", directory);
+  if (map.Has("surface_texture")) overlays.surface_texture = File(map, "surface_texture", directory);
+  if (map.Has("internal_meshes")) {
+    const YAML::Node list = map.Node("internal_meshes");
+    if (!list.IsSequence()) {
+      throw Error("'internal_meshes' must be a list of files", map.Where("internal_meshes"), "write [a.obj, b.ply]");
+    }
+    for (const YAML::Node& item : list) {
+      overlays.internal_meshes.push_back(ExistingFile(map, "internal_meshes", directory, item.as<std::string>()));
+    }
+  }
+  if (map.Has("internal_points")) {
+    const std::string value = map.String("internal_points");
+    const size_t colon = value.find(':');
+    const std::string file = value.substr(0, colon);
+    overlays.internal_points = ExistingFile(map, "internal_points", directory, file) +
+                               (colon == std::string::npos ? "" : value.substr(colon));
+  }
+  map.RejectUnknown();
+  return overlays;
+}
+
+}  // namespace
+
+Scene ReadScene(const std::string& path) {
+  std::ifstream file(path);
+  if (!file) throw Error("cannot open the scene file", path, "check the path (dynaguide phantom writes one)");
+  std::stringstream text;
+  text << file.rdbuf();
+  YAML::Node root;
+  try {
+    root = YAML::Load(text.str());
+  } catch (const YAML::ParserException& e) {
+    throw Error("not valid YAML: " + e.msg, path + ":" + std::to_string(e.mark.line + 1),
+                "correct the syntax (indentation, colons, brackets)");
+  }
+  const fs::path directory = fs::absolute(path).parent_path();
+  const YamlMap top(root, path, "");
+  Scene scene;
+  scene.path = fs::absolute(path).string();
+  scene.text = text.str();
+  scene.name = top.String("name", fs::path(path).parent_path().filename().string());
+
+  const YamlMap mesh = top.Map("mesh");
+  scene.mesh.file = File(mesh, "file", directory);
+  scene.mesh.metres_per_unit = MetresPerUnit(mesh.String("units", "m"), mesh.Where("units"));
+  scene.mesh.fixed_set = mesh.String("fixed_set", scene.mesh.fixed_set);
+  scene.mesh.surface_set = mesh.String("surface_set", scene.mesh.surface_set);
+  mesh.RejectUnknown();
+
+  if (top.Has("material")) {
+    const YamlMap map = top.Map("material");
+    scene.material.youngs_modulus_pa = map.Number("youngs_modulus_pa", scene.material.youngs_modulus_pa);
+    scene.material.poissons_ratio = map.Number("poissons_ratio", scene.material.poissons_ratio);
+    scene.material.density_kg_m3 = map.Number("density_kg_m3", scene.material.density_kg_m3);
+    map.RejectUnknown();
+    if (const std::string wrong = scene.material.Validate(); !wrong.empty()) throw Error(wrong, map.Where(), "correct the material");
+  }
+  if (top.Has("preoperative")) scene.preoperative = ReadPreoperative(top.Map("preoperative"), directory);
+  if (top.Has("overlays")) scene.overlays = ReadOverlays(top.Map("overlays"), directory);
+  scene.calibration = File(top, "calibration", directory);
+  if (top.Has("calibration_images")) scene.calibration_images = (directory / top.String("calibration_images")).string();
+
+  const YamlMap video = top.Map("video");
+  scene.video.left = File(video, "left", directory);
+  scene.video.right = File(video, "right", directory);
+  scene.video.fps = video.Number("fps");
+  scene.video.frames = video.Integer("frames", 0);
+  if (!(scene.video.fps > 0)) throw Error("'fps' must be positive", video.Where("fps"), "give the video's frame rate");
+  video.RejectUnknown();
+
+  if (top.Has("truth")) scene.truth = File(top, "truth", directory);
+  top.RejectUnknown();
+  return scene;
+}
+
+}  // namespace dg::io

@@ -1,0 +1,62 @@
+#pragma once
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "sim/material.h"
+
+namespace dg::io {
+
+// A scene: one YAML file naming everything a run needs (DESIGN.md section 7),
+// as `dynaguide phantom` writes it. Paths in the file are relative to it and
+// are resolved here to absolute ones; every named file must exist. Optional
+// parts are absent in scenes that do not need them (no truth for a real
+// recording, no preoperative data for surface-only runs).
+struct Scene {
+  std::string path;  // the scene file
+  std::string text;  // verbatim, for the run log
+  std::string name;
+
+  struct Mesh {
+    std::string file;
+    double metres_per_unit = 1.0;
+    std::string fixed_set = "base";
+    std::string surface_set = "surface";
+  } mesh;
+
+  sim::Material material;
+
+  struct Preoperative {
+    double period_s = 0;
+    int phases = 0;
+    std::string motion;                   // HDF5 with /phases/node_displacement_m
+    std::vector<std::string> ct_volumes;  // one MetaImage per phase
+  };
+  std::optional<Preoperative> preoperative;
+
+  struct Overlays {
+    std::string surface_mesh, surface_texture;
+    std::vector<std::string> internal_meshes;
+    std::string internal_points;  // "file.h5:/dataset"
+  };
+  std::optional<Overlays> overlays;
+
+  std::string calibration;  // OpenCV stereo calibration YAML
+  std::string calibration_images;  // printf pattern with %s (left/right) and %d, optional
+
+  struct Video {
+    std::string left, right;
+    double fps = 0;
+    int frames = 0;
+  } video;
+
+  std::string truth;  // optional: ground truth HDF5
+};
+
+// @throws dg::Error naming the file, line and key path of an unknown key, a
+// value of the wrong type, a missing required key, or a file that does not
+// exist (with the resolved path).
+Scene ReadScene(const std::string& path);
+
+}  // namespace dg::io

@@ -1,0 +1,98 @@
+#include "io/scene.h"
+
+#include <filesystem>
+#include <fstream>
+
+#include <catch2/catch.hpp>
+
+#include "sim/error.h"
+
+namespace dg::io {
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr char kScene[] = R"(name: test
+mesh:
+  file: mesh.msh
+  units: mm
+  fixed_set: base
+material:
+  youngs_modulus_pa: 5000
+preoperative:
+  period_s: 0.8
+  phases: 3
+  motion: scan.h5
+  ct: ct/phase_%02d.mhd
+overlays:
+  surface_mesh: assets/skin.obj
+  internal_meshes: [assets/a.obj]
+  internal_points: scan.h5:/points
+calibration: calibration.yaml
+video:
+  left: video/left.avi
+  right: video/right.avi
+  fps: 30
+truth: truth.h5
+)";
+
+// A scene directory with empty files for every name kScene uses.
+fs::path MakeSceneDir(const std::string& name, const std::string& text) {
+  const fs::path dir = fs::temp_directory_path() / name;
+  fs::remove_all(dir);
+  for (const char* file : {"mesh.msh", "scan.h5", "ct/phase_00.mhd", "ct/phase_01.mhd", "ct/phase_02.mhd",
+                           "assets/skin.obj", "assets/a.obj", "calibration.yaml", "video/left.avi",
+                           "video/right.avi", "truth.h5"}) {
+    fs::create_directories((dir / file).parent_path());
+    std::ofstream(dir / file) << "";
+  }
+  std::ofstream(dir / "scene.yaml") << text;
+  return dir;
+}
+
+}  // namespace
+
+// Every path resolves against the scene file; units and optional parts are read.
+TEST_CASE("scene: paths resolve against the scene file", "[io][unit]") {
+  const fs::path dir = MakeSceneDir("dg_scene_test_ok", kScene);
+  const Scene scene = ReadScene((dir / "scene.yaml").string());
+  REQUIRE(scene.name == "test");
+  REQUIRE(scene.mesh.file == (dir / "mesh.msh").string());
+  REQUIRE(scene.mesh.metres_per_unit == 1e-3);
+  REQUIRE(scene.material.youngs_modulus_pa == 5000);
+  REQUIRE(scene.material.poissons_ratio == 0.45);  // the default
+  REQUIRE(scene.preoperative->ct_volumes.size() == 3);
+  REQUIRE(scene.preoperative->ct_volumes[2] == (dir / "ct/phase_02.mhd").string());
+  REQUIRE(scene.overlays->internal_points == (dir / "scan.h5").string() + ":/points");
+  REQUIRE(scene.video.fps == 30);
+  REQUIRE(scene.truth == (dir / "truth.h5").string());
+  REQUIRE(scene.text == kScene);
+}
+
+// An unknown key, a wrong type and a missing file are errors naming the key path.
+TEST_CASE("scene: bad scenes give named errors", "[io][unit]") {
+  std::string text = kScene;
+  text.replace(text.find("  fps: 30"), 9, "  fps: 30\n  rate: 30");
+  fs::path dir = MakeSceneDir("dg_scene_test_bad", text);
+  REQUIRE_THROWS_WITH(ReadScene((dir / "scene.yaml").string()),
+                      Catch::Contains("unknown key 'rate'") && Catch::Contains("video.rate") &&
+                          Catch::Contains("scene.yaml:22"));
+
+  text = kScene;
+  text.replace(text.find("fps: 30"), 7, "fps: fast");
+  dir = MakeSceneDir("dg_scene_test_bad", text);
+  REQUIRE_THROWS_WITH(ReadScene((dir / "scene.yaml").string()), Catch::Contains("'fps' must be a number"));
+
+  dir = MakeSceneDir("dg_scene_test_bad", kScene);
+  fs::remove(dir / "video/right.avi");
+  REQUIRE_THROWS_WITH(ReadScene((dir / "scene.yaml").string()),
+                      Catch::Contains("file not found") && Catch::Contains("video/right.avi") &&
+                          Catch::Contains("video.right"));
+
+  text = kScene;
+  text.replace(text.find("ct/phase_%02d.mhd"), 17, "ct/%s.mhd");
+  dir = MakeSceneDir("dg_scene_test_bad", text);
+  REQUIRE_THROWS_WITH(ReadScene((dir / "scene.yaml").string()), Catch::Contains("one integer field"));
+}
+
+}  // namespace dg::io
