@@ -19,6 +19,7 @@
 
 #include "io/h5_file.h"
 #include "io/metaimage.h"
+#include "io/scene.h"
 #include "tools/phantom/phantom_generator.h"
 
 namespace dg::tools::phantom {
@@ -317,6 +318,19 @@ void CheckChessboards() {
   REQUIRE(errors.back() < 0.5);
 }
 
+// The scene file names every file of the scene, and the scene reader finds them all.
+void CheckSceneFile() {
+  const io::Scene scene = io::ReadScene(DefaultScene() + "/scene.yaml");
+  REQUIRE(scene.preoperative->phases == 20);
+  REQUIRE(scene.preoperative->ct_volumes.size() == 20);
+  REQUIRE(scene.preoperative->period_s == Approx(60.0 / 90));
+  REQUIRE(scene.overlays->internal_meshes.size() == 2);
+  REQUIRE(scene.video.fps == 30);
+  REQUIRE(scene.video.frames == 15);
+  REQUIRE(scene.mesh.fixed_set == "base");
+  REQUIRE(!scene.truth.empty());
+}
+
 }  // namespace
 
 // One process generates the default scene once (half a second of video) and
@@ -328,6 +342,7 @@ TEST_CASE("phantom: default scene agrees with independent measurements", "[tools
   SECTION("CT bead centroids match the per-phase fiducials") { CheckBeadCentroids(); }
   SECTION("Gmsh reads the mesh oriented, its fixed group on the mount") { CheckMeshInGmsh(); }
   SECTION("OpenCV finds every chessboard where the true pose puts it") { CheckChessboards(); }
+  SECTION("the scene file names every file, and the scene reader finds them") { CheckSceneFile(); }
 }
 
 namespace {
