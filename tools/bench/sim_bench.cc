@@ -11,6 +11,7 @@
 #include "io/gmsh_mesher.h"
 #include "sim/error.h"
 #include "sim/tled_solver.h"
+#include "tools/json_text.h"
 #include "tools/machine_info.h"
 
 namespace dg::tools {
@@ -109,14 +110,14 @@ void WriteSimBenchJson(const std::string& path, const std::vector<SimBenchRecord
     const SimBenchRecord& r = records[i];
     char line[1024];
     std::snprintf(line, sizeof line,
-                  "  {\"mesh_tets\": %d, \"mesh_nodes\": %d, \"threads\": %d, \"precision\": \"%s\", \"mode\": \"%s\", "
+                  "  {\"mesh_tets\": %d, \"mesh_nodes\": %d, \"threads\": %d, \"precision\": %s, \"mode\": %s, "
                   "\"tet_steps_per_s\": %.6g, \"tet_steps_per_s_min\": %.6g, \"tet_steps_per_s_max\": %.6g, "
                   "\"realtime_factor\": %.6g, \"dt_s\": %.6g, \"dt_critical_s\": %.6g, \"steps_per_repeat\": %d, "
-                  "\"repeats\": %d, \"cpu\": \"%s\", \"logical_cores\": %d, \"simd\": \"%s\", \"compiler\": \"%s\"}%s\n",
-                  r.mesh_tets, r.mesh_nodes, r.threads, r.precision.c_str(), r.mode.c_str(), r.tet_steps_per_s,
+                  "\"repeats\": %d, \"cpu\": %s, \"logical_cores\": %d, \"simd\": %s, \"compiler\": %s}%s\n",
+                  r.mesh_tets, r.mesh_nodes, r.threads, JsonQuoted(r.precision).c_str(), JsonQuoted(r.mode).c_str(), r.tet_steps_per_s,
                   r.tet_steps_per_s_min, r.tet_steps_per_s_max, r.realtime_factor, r.dt_s, r.dt_critical_s,
-                  r.steps_per_repeat, r.repeats, machine.cpu_model.c_str(), machine.logical_cores,
-                  machine.simd.c_str(), machine.compiler.c_str(), i + 1 < records.size() ? "," : "");
+                  r.steps_per_repeat, r.repeats, JsonQuoted(machine.cpu_model).c_str(), machine.logical_cores,
+                  JsonQuoted(machine.simd).c_str(), JsonQuoted(machine.compiler).c_str(), i + 1 < records.size() ? "," : "");
     out << line;
   }
   out << "]\n";

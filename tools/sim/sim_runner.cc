@@ -11,6 +11,7 @@
 #include "sim/element_measures.h"
 #include "sim/error.h"
 #include "sim/tled_solver.h"
+#include "tools/json_text.h"
 #include "tools/progress.h"
 
 namespace dg::tools {
@@ -26,8 +27,8 @@ io::MeshFields OutputFields(const sim::TetMesh& mesh, const sim::Material& mater
 
 void WriteSummaryJson(const std::string& path, const SimSummary& s, const std::string& status) {
   std::ofstream out(path);
-  out << "{\n  \"status\": \"" << status << "\",\n  \"nodes\": " << s.nodes << ",\n  \"tets\": " << s.tets
-      << ",\n  \"precision\": \"" << s.precision << "\",\n  \"steps\": " << s.steps
+  out << "{\n  \"status\": " << JsonQuoted(status) << ",\n  \"nodes\": " << s.nodes << ",\n  \"tets\": " << s.tets
+      << ",\n  \"precision\": " << JsonQuoted(s.precision) << ",\n  \"steps\": " << s.steps
       << ",\n  \"substeps_per_step\": " << s.substeps_per_step << ",\n  \"dt_s\": " << s.dt_s
       << ",\n  \"simulated_s\": " << s.simulated_s << ",\n  \"wall_s\": " << s.wall_s
       << ",\n  \"tet_steps_per_s\": " << s.tet_steps_per_s << ",\n  \"realtime_factor\": " << s.realtime_factor
@@ -36,7 +37,7 @@ void WriteSummaryJson(const std::string& path, const SimSummary& s, const std::s
       << ",\n  \"max_displacement_m\": " << s.max_displacement_m << ",\n  \"threads\": " << s.threads << ",\n  \"reactions_n\": {";
   for (size_t k = 0; k < s.reactions_n.size(); ++k) {
     const Eigen::Vector3d& r = s.reactions_n[k].second;
-    out << (k ? ", " : "") << "\"" << s.reactions_n[k].first << "\": [" << r.x() << ", " << r.y() << ", " << r.z()
+    out << (k ? ", " : "") << JsonQuoted(s.reactions_n[k].first) << ": [" << r.x() << ", " << r.y() << ", " << r.z()
         << "]";
   }
   out << "}\n}\n";
