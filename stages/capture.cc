@@ -1,0 +1,110 @@
+#include "stages/capture.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <spdlog/logger.h>
+
+#include "sim/error.h"
+#include "sim/log.h"
+
+namespace dg::stages {
+namespace {
+
+std::string SizeText(const cv::Size& size) {
+  return std::to_string(size.width) + "x" + std::to_string(size.height);
+}
+
+// Both eyes of one recording: same frame size, same rate, lengths reconciled.
+void CheckPair(const FrameSource& left, const FrameSource& right) {
+  if (left.size() != right.size()) {
+    throw Error("the left and right inputs differ in frame size: " + left.name() + " is " +
+                    SizeText(left.size()) + ", " + right.name() + " is " + SizeText(right.size()),
+                left.name() + ", " + right.name(), "give the two eyes of one stereo recording");
+  }
+  if (std::abs(left.fps() - right.fps()) > 1e-3 * std::max(left.fps(), right.fps())) {
+    throw Error("the left and right videos differ in frame rate: " + left.name() + " at " +
+                    std::to_string(left.fps()) + " fps, " + right.name() + " at " + std::to_string(right.fps()) +
+                    " fps",
+                left.name() + ", " + right.name(), "give the two eyes of one stereo recording");
+  }
+}
+
+}  // namespace
+
+std::string CaptureStage::Options::Validate() const {
+  if (left_path.empty()) return "no input given";
+  if (layout == Layout::kSideBySide && !right_path.empty()) {
+    return "a side-by-side video is one file; a right path was given too";
+  }
+  if (layout != Layout::kSideBySide && right_path.empty()) return "no right input given";
+  if (!(fps >= 0) || !std::isfinite(fps)) return "fps must be positive, or 0 for the container's";
+  if (layout == Layout::kImageSequences && fps == 0) return "an image sequence needs its frame rate (fps)";
+  return "";
+}
+
+CaptureStage::CaptureStage(const Options& options) : options_(options) {
+  if (const std::string problem = options.Validate(); !problem.empty()) {
+    throw Error(problem, "capture options", "give --left and --right (or one side-by-side video), and --fps for images");
+  }
+  const bool images = options.layout == Layout::kImageSequences;
+  left_ = images ? OpenImageSequence(options.left_path) : OpenVideo(options.left_path);
+  frame_count_ = left_->frame_count();
+  size_ = left_->size();
+  if (options.layout == Layout::kSideBySide) {
+    if (size_.width % 2 != 0) {
+      throw Error("a side-by-side video needs an even width, this one is " + SizeText(size_), options.left_path,
+                  "give the two eyes' images side by side, each half the width");
+    }
+    size_.width /= 2;
+  } else {
+    right_ = images ? OpenImageSequence(options.right_path) : OpenVideo(options.right_path);
+    CheckPair(*left_, *right_);
+    if (left_->frame_count() != right_->frame_count()) {
+      frame_count_ = std::min(left_->frame_count(), right_->frame_count());
+      truncation_ = "unequal lengths: " + left_->name() + " has " + std::to_string(left_->frame_count()) +
+                    " frames, " + right_->name() + " has " + std::to_string(right_->frame_count()) +
+                    "; reading the first " + std::to_string(frame_count_) + " of each";
+      Logger("stages").warn("capture: {}", truncation_);
+    }
+  }
+  fps_ = options.fps > 0 ? options.fps : left_->fps();
+  container_times_ = options.fps == 0;
+  if (!(fps_ > 0)) {
+    throw Error("the video does not state its frame rate", options.left_path, "give the frame rate (--fps)");
+  }
+}
+
+double CaptureStage::FrameTime(std::int64_t index, const std::optional<double>& container_t_s) {
+  if (index == 0 && container_t_s) first_container_t_s_ = *container_t_s;
+  const std::optional<double> t_s =
+      container_t_s ? std::optional<double>(*container_t_s - first_container_t_s_) : std::nullopt;
+  container_times_ = container_times_ && t_s && (index == 0 || *t_s > last_t_s_);
+  last_t_s_ = container_times_ ? *t_s : index / fps_;
+  return last_t_s_;
+}
+
+std::optional<StereoFrame> CaptureStage::Next() {
+  if (next_index_ >= frame_count_) return std::nullopt;
+  std::optional<double> container_t_s, unused;
+  std::optional<cv::Mat> left = left_->Read(&container_t_s);
+  std::optional<cv::Mat> right;
+  if (right_) {
+    right = right_->Read(&unused);
+  } else if (left) {
+    right = (*left)(cv::Rect(size_.width, 0, size_.width, size_.height));
+    left = (*left)(cv::Rect(0, 0, size_.width, size_.height));
+  }
+  if (!left || !right) {  // the container promised more frames than it holds
+    truncation_ = "the input ended after " + std::to_string(next_index_) + " of the " +
+                  std::to_string(frame_count_) + " frames its container states";
+    Logger("stages").warn("capture: {}", truncation_);
+    frame_count_ = static_cast<int>(next_index_);
+    return std::nullopt;
+  }
+  StereoFrame frame{next_index_, FrameTime(next_index_, container_t_s), std::move(*left), std::move(*right)};
+  ++next_index_;
+  return frame;
+}
+
+}  // namespace dg::stages
