@@ -10,6 +10,7 @@ namespace dg::tools {
 // Its callback throws dg::Error on bad input; main() prints it and exits 1.
 void AddSimCommand(CLI::App& app);
 void AddBenchCommand(CLI::App& app);
+void AddCalibrateCommand(CLI::App& app);
 void AddMeshCommand(CLI::App& app);
 void AddPhantomCommand(CLI::App& app);
 

@@ -12,6 +12,7 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   dg::tools::AddSimCommand(app);
   dg::tools::AddBenchCommand(app);
+  dg::tools::AddCalibrateCommand(app);
   dg::tools::AddMeshCommand(app);
   dg::tools::AddPhantomCommand(app);
   try {

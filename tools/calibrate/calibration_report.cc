@@ -1,0 +1,54 @@
+#include "tools/calibrate/calibration_report.h"
+
+#include <cstdio>
+#include <fstream>
+#include <sstream>
+
+#include "sim/error.h"
+#include "tools/json_text.h"
+
+namespace dg::tools::calibrate {
+namespace {
+
+std::string Format(const char* format, double a, double b = 0, double c = 0, double d = 0) {
+  char line[256];
+  std::snprintf(line, sizeof line, format, a, b, c, d);
+  return line;
+}
+
+}  // namespace
+
+std::string DescribeReport(const StereoCalibrationReport& report) {
+  const io::StereoCalibration& calibration = report.calibration;
+  std::ostringstream text;
+  text << "views used: " << report.used.size() << ", rejected: " << report.rejected.size() << "\n";
+  for (const std::string& rejected : report.rejected) text << "  rejected " << rejected << "\n";
+  text << Format("RMS reprojection error: left %.3f px, right %.3f px, stereo %.3f px\n", report.rms_left_px,
+                 report.rms_right_px, report.rms_stereo_px);
+  text << Format("mean epipolar error after rectification: %.3f px\n", report.epipolar_error_px);
+  for (const auto& [name, camera] : {std::pair{"left", &calibration.left}, std::pair{"right", &calibration.right}}) {
+    text << name
+         << Format(": f = (%.2f, %.2f) px, c = (%.2f, %.2f) px\n", camera->fx(), camera->fy(), camera->cx(),
+                   camera->cy());
+  }
+  text << Format("baseline: %.3f mm\n", 1e3 * calibration.T_m.norm());
+  return text.str();
+}
+
+void WriteReportJson(const std::string& path, const StereoCalibrationReport& report) {
+  std::ofstream file(path);
+  if (!file) throw Error("cannot write the JSON report", path, "check that the directory exists and is writable");
+  file << "{\n"
+       << Format("  \"rms_left\": %.6f,\n  \"rms_right\": %.6f,\n  \"rms_stereo\": %.6f,\n", report.rms_left_px,
+                 report.rms_right_px, report.rms_stereo_px)
+       << Format("  \"epipolar_error_px\": %.6f,\n  \"baseline_m\": %.9f,\n", report.epipolar_error_px,
+                 report.calibration.T_m.norm())
+       << "  \"views_used\": " << report.used.size() << ",\n"
+       << "  \"views_rejected\": " << report.rejected.size() << ",\n"
+       << "  \"rejected\": [";
+  for (size_t i = 0; i < report.rejected.size(); ++i) file << (i ? ", " : "") << JsonQuoted(report.rejected[i]);
+  file << "]\n}\n";
+  if (!file) throw Error("cannot write the JSON report", path, "check the free space");
+}
+
+}  // namespace dg::tools::calibrate
