@@ -1,0 +1,89 @@
+#include "stages/track/feature_tracker.h"
+
+#include <cmath>
+
+#include "sim/error.h"
+
+namespace dg::stages {
+
+std::string FeatureTracker::Options::Validate() const {
+  for (const std::string& error : {detector.Validate(), temporal.Validate(), stereo.Validate()})
+    if (!error.empty()) return error;
+  if (redetect_fraction <= 0 || redetect_fraction > 1) return "redetect_fraction must be in (0, 1]";
+  if (max_disparity_change_px <= 0) return "max_disparity_change_px must be positive";
+  if (max_unmatched_frames < 0) return "max_unmatched_frames must not be negative";
+  return {};
+}
+
+FeatureTracker::FeatureTracker(const Options& options, const io::StereoCalibration& calibration)
+    : options_(options),
+      detector_(options.detector),
+      temporal_(options.temporal),
+      stereo_(options.stereo),
+      triangulator_(calibration) {
+  if (const std::string error = options.Validate(); !error.empty())
+    throw Error("invalid feature tracker options: " + error, "FeatureTracker::Options", "correct the option");
+}
+
+TrackFrame FeatureTracker::Process(const cv::Mat& left_R, const cv::Mat& right_R) {
+  TrackFrame frame;
+  TemporalTracker::Pyramid pyramid = temporal_.BuildPyramid(left_R);
+  if (!previous_.empty() && !tracks_.empty()) {
+    std::vector<cv::Point2f> points, moved;
+    for (const Track& t : tracks_) points.push_back(t.uv_R);
+    std::vector<bool> tracked;
+    temporal_.Track(previous_, pyramid, points, &moved, &tracked);
+    std::vector<Track> kept;
+    for (size_t i = 0; i < tracks_.size(); ++i) {
+      if (!tracked[i]) continue;
+      kept.push_back(tracks_[i]);
+      kept.back().uv_R = moved[i];
+      ++kept.back().age;
+    }
+    frame.lost = static_cast<int>(tracks_.size() - kept.size());
+    tracks_ = std::move(kept);
+  }
+  previous_ = std::move(pyramid);
+
+  if (tracks_.size() < options_.redetect_fraction * options_.detector.target_count) {
+    std::vector<cv::Point2f> existing;
+    for (const Track& t : tracks_) existing.push_back(t.uv_R);
+    for (const Feature& f : detector_.Detect(left_R, existing)) tracks_.push_back({next_id_++, f.kind, f.uv_R_px});
+    frame.detected = static_cast<int>(tracks_.size() - existing.size());
+  }
+
+  std::vector<cv::Point2f> points;
+  for (const Track& t : tracks_) points.push_back(t.uv_R);
+  const std::vector<StereoMatch> matches = stereo_.Match(left_R, right_R, points);
+  std::vector<Track> kept;
+  for (size_t i = 0; i < tracks_.size(); ++i) {
+    Track& t = tracks_[i];
+    const StereoMatch& m = matches[i];
+    const bool consistent =
+        m.valid && (t.disparity < 0 || std::abs(m.disparity_px - t.disparity) <= options_.max_disparity_change_px);
+    if (!consistent) {
+      if (++t.unmatched <= options_.max_unmatched_frames) kept.push_back(t);
+      else ++frame.lost;
+      continue;
+    }
+    t.unmatched = 0;
+    t.disparity = m.disparity_px;
+    kept.push_back(t);
+    TrackedPoint p;
+    p.id = t.id;
+    p.kind = t.kind;
+    p.uv_left_R_px = Eigen::Vector2d(t.uv_R.x, t.uv_R.y);
+    p.uv_right_R_px = p.uv_left_R_px - Eigen::Vector2d(m.disparity_px, 0);
+    p.uv_left_px = triangulator_.LeftToDistorted(p.uv_left_R_px);
+    p.uv_right_px = triangulator_.RightToDistorted(p.uv_right_R_px);
+    p.xyz_C_m = triangulator_.Triangulate(p.uv_left_R_px, m.disparity_px);
+    p.quality = m.score;
+    p.age_frames = t.age;
+    frame.points.push_back(p);
+  }
+  tracks_ = std::move(kept);
+  frame.tracked = static_cast<int>(tracks_.size());
+  return frame;
+}
+
+}  // namespace dg::stages

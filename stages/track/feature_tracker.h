@@ -1,0 +1,81 @@
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <opencv2/core.hpp>
+
+#include "io/calibration.h"
+#include "stages/track/feature.h"
+#include "stages/track/feature_detector.h"
+#include "stages/track/stereo_matcher.h"
+#include "stages/track/temporal_tracker.h"
+#include "stages/track/triangulator.h"
+
+namespace dg::stages {
+
+// One surface point measured in one frame.
+struct TrackedPoint {
+  std::int64_t id = 0;  // persistent: the same material point keeps its id while it is tracked
+  FeatureKind kind = FeatureKind::kCorner;
+  Eigen::Vector2d uv_left_R_px, uv_right_R_px;  // rectified
+  Eigen::Vector2d uv_left_px, uv_right_px;      // original, distorted
+  Eigen::Vector3d xyz_C_m;                      // left camera frame
+  double quality = 0;                           // the stereo match's NCC, in (min_score, 1]
+  int age_frames = 0;                           // frames since detection
+};
+
+struct TrackFrame {
+  std::vector<TrackedPoint> points;  // tracks with a stereo match in this frame
+  int tracked = 0;                   // tracks alive after this frame, matched or not
+  int detected = 0, lost = 0;        // tracks started and ended in this frame
+};
+
+// The tracking stage (DESIGN.md section 4): features of the rectified left
+// image followed from frame to frame, matched along the row into the right
+// image and triangulated. Detection is the expensive part, so it runs only
+// when the live count falls below a fraction of the target, and then only
+// fills the buckets that lost tracks.
+// Stateful: frames must come in order, one at a time (a serial node).
+class FeatureTracker {
+ public:
+  struct Options {
+    FeatureDetector::Options detector;
+    TemporalTracker::Options temporal;
+    StereoMatcher::Options stereo;
+    double redetect_fraction = 0.9;      // detect when fewer than this fraction of the target are alive
+    double max_disparity_change_px = 3;  // between frames: a larger jump is a wrong stereo match
+    int max_unmatched_frames = 3;        // a track without a stereo match for longer ends
+    std::string Validate() const;        // empty when valid
+  };
+
+  // @throws dg::Error for invalid options or a calibration without rectification.
+  FeatureTracker(const Options& options, const io::StereoCalibration& calibration);
+
+  // @pre left_R and right_R are the rectified pair, CV_8UC1, of the same size as every earlier frame.
+  TrackFrame Process(const cv::Mat& left_R, const cv::Mat& right_R);
+
+  const Triangulator& triangulator() const { return triangulator_; }
+
+ private:
+  struct Track {
+    std::int64_t id;
+    FeatureKind kind;
+    cv::Point2f uv_R;
+    float disparity = -1;  // the last matched disparity; negative before the first match
+    int age = 0, unmatched = 0;
+  };
+
+  Options options_;
+  FeatureDetector detector_;
+  TemporalTracker temporal_;
+  StereoMatcher stereo_;
+  Triangulator triangulator_;
+  TemporalTracker::Pyramid previous_;
+  std::vector<Track> tracks_;
+  std::int64_t next_id_ = 0;
+};
+
+}  // namespace dg::stages

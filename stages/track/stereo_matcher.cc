@@ -1,0 +1,155 @@
+#include "stages/track/stereo_matcher.h"
+
+#include <cmath>
+
+#include <opencv2/imgproc.hpp>
+
+#include "sim/error.h"
+
+namespace dg::stages {
+namespace {
+
+// Zero mean, unit norm: the window's NCC with another is then a dot product.
+bool Normalize(cv::Mat* window) {
+  const cv::Scalar mean = cv::mean(*window);
+  *window -= mean;
+  const double norm = cv::norm(*window);
+  if (norm < 1e-6) return false;
+  *window /= norm;
+  return true;
+}
+
+// A window of `size` centred at p, bicubic: bilinear sampling (getRectSubPix)
+// smooths differently at each fraction of a pixel and biases the sub-pixel
+// estimate by a few hundredths of a pixel.
+void SampleCubic(const cv::Mat& image, cv::Size size, const cv::Point2f& p, cv::Mat* window) {
+  // Sampled in float from a float copy of the neighbourhood: an 8-bit result would be rounded to whole grey levels.
+  const float x0 = p.x - 0.5f * static_cast<float>(size.width - 1);
+  const float y0 = p.y - 0.5f * static_cast<float>(size.height - 1);
+  const cv::Rect wanted(static_cast<int>(std::floor(x0)) - 2, static_cast<int>(std::floor(y0)) - 2, size.width + 5,
+                        size.height + 5);
+  const cv::Rect roi = wanted & cv::Rect(0, 0, image.cols, image.rows);
+  cv::Mat patch;
+  image(roi).convertTo(patch, CV_32F);
+  cv::Mat map_x(size, CV_32F), map_y(size, CV_32F);
+  for (int r = 0; r < size.height; ++r) {
+    for (int c = 0; c < size.width; ++c) {
+      map_x.at<float>(r, c) = x0 + static_cast<float>(c - roi.x);
+      map_y.at<float>(r, c) = y0 + static_cast<float>(r - roi.y);
+    }
+  }
+  cv::remap(patch, *window, map_x, map_y, cv::INTER_CUBIC, cv::BORDER_REPLICATE);
+}
+
+}  // namespace
+
+std::string StereoMatcher::Options::Validate() const {
+  if (min_disparity_px < 0 || max_disparity_px <= min_disparity_px)
+    return "need 0 <= min_disparity_px < max_disparity_px";
+  if (half_window_px < 1) return "half_window_px must be at least 1";
+  if (min_score < -1 || min_score > 1) return "min_score must be in [-1, 1]";
+  if (uniqueness_margin < 0) return "uniqueness_margin must not be negative";
+  if (left_right_tolerance_px <= 0) return "left_right_tolerance_px must be positive";
+  if (refine_iterations < 0) return "refine_iterations must not be negative";
+  return {};
+}
+
+StereoMatcher::StereoMatcher(const Options& options) : options_(options) {
+  if (const std::string error = options.Validate(); !error.empty())
+    throw Error("invalid stereo matcher options: " + error, "StereoMatcher::Options", "correct the option");
+}
+
+StereoMatcher::Peak StereoMatcher::SearchRow(const cv::Mat& from, const cv::Mat& to, const cv::Point2f& p,
+                                             int direction) const {
+  const int h = options_.half_window_px;
+  const int d_min = static_cast<int>(std::ceil(options_.min_disparity_px));
+  const int d_max = static_cast<int>(std::floor(options_.max_disparity_px));
+  const int count = d_max - d_min + 1;
+  cv::Mat window, strip, ncc;
+  cv::getRectSubPix(from, cv::Size(2 * h + 1, 2 * h + 1), p, window, CV_32F);
+  // Column j of the strip's NCC is disparity d_max - j looking left, d_min + j looking right.
+  const float centre_x = p.x + direction * 0.5f * static_cast<float>(d_min + d_max);
+  cv::getRectSubPix(to, cv::Size(count + 2 * h, 2 * h + 1), cv::Point2f(centre_x, p.y), strip, CV_32F);
+  cv::matchTemplate(strip, window, ncc, cv::TM_CCOEFF_NORMED);
+  const auto disparity_of = [&](int j) { return direction < 0 ? d_max - j : d_min + j; };
+  // Windows reaching past the image edge see replicated border pixels, not the scene.
+  const auto inside = [&](int j) {
+    const float x = p.x + direction * static_cast<float>(disparity_of(j));
+    return x - h >= 0 && x + h <= to.cols - 1;
+  };
+  const float* r = ncc.ptr<float>(0);
+  int best = -1;
+  for (int j = 0; j < count; ++j)
+    if (inside(j) && std::isfinite(r[j]) && (best < 0 || r[j] > r[best])) best = j;
+  Peak peak;
+  if (best < 0 || r[best] < options_.min_score) return peak;
+  // The best elsewhere: beyond the peak's own slopes (as far as they descend).
+  int lo = best, hi = best;
+  while (lo > 0 && r[lo - 1] < r[lo]) --lo;
+  while (hi < count - 1 && r[hi + 1] < r[hi]) ++hi;
+  float second = -1;
+  for (int j = 0; j < count; ++j)
+    if ((j < lo || j > hi) && inside(j)) second = std::max(second, r[j]);
+  if (second > r[best] - options_.uniqueness_margin) return peak;
+  double offset = 0;
+  if (best > 0 && best < count - 1) {
+    const double a = r[best - 1], b = r[best], c = r[best + 1];
+    const double curvature = a - 2 * b + c;
+    if (curvature < 0) offset = 0.5 * (a - c) / curvature;
+  }
+  peak.found = true;
+  peak.score = r[best];
+  peak.disparity = disparity_of(best) + (direction < 0 ? -offset : offset);
+  return peak;
+}
+
+bool StereoMatcher::Refine(const cv::Mat& left, const cv::Mat& right, const cv::Point2f& p, double* disparity) const {
+  const int h = options_.half_window_px;
+  const cv::Size size(2 * h + 1, 2 * h + 1);
+  cv::Mat l, wide;
+  SampleCubic(left, size, p, &l);
+  if (!Normalize(&l)) return false;
+  const double start = *disparity;
+  for (int it = 0; it < options_.refine_iterations; ++it) {
+    // The right window and one column either side, for central differences.
+    const cv::Point2f q(p.x - static_cast<float>(*disparity), p.y);
+    SampleCubic(right, cv::Size(size.width + 2, size.height), q, &wide);
+    cv::Mat r = wide.colRange(1, size.width + 1).clone();
+    cv::Mat gx = 0.5 * (wide.colRange(2, size.width + 2) - wide.colRange(0, size.width));
+    const double mean = cv::mean(r)[0];
+    r -= mean;
+    const double norm = cv::norm(r);
+    if (norm < 1e-6) return false;
+    r /= norm;
+    gx /= norm;
+    // Minimise sum (R(x - d - delta) - L)^2: R(x - d - delta) ~ R - gx delta.
+    const double gg = gx.dot(gx);
+    if (gg < 1e-12) return false;
+    const double delta = gx.dot(r - l) / gg;
+    *disparity += delta;
+    if (std::abs(*disparity - start) > 1.0) return false;
+    if (std::abs(delta) < 1e-3) break;
+  }
+  return true;
+}
+
+std::vector<StereoMatch> StereoMatcher::Match(const cv::Mat& left, const cv::Mat& right,
+                                              const std::vector<cv::Point2f>& uv_left_px) const {
+  DG_CHECK(left.type() == CV_8UC1 && right.type() == CV_8UC1 && left.size() == right.size());
+  std::vector<StereoMatch> matches(uv_left_px.size());
+  for (size_t i = 0; i < uv_left_px.size(); ++i) {
+    const cv::Point2f& p = uv_left_px[i];
+    const Peak forward = SearchRow(left, right, p, -1);
+    if (!forward.found) continue;
+    const cv::Point2f q(p.x - static_cast<float>(forward.disparity), p.y);
+    const Peak backward = SearchRow(right, left, q, +1);
+    if (!backward.found || std::abs(backward.disparity - forward.disparity) > options_.left_right_tolerance_px)
+      continue;
+    double disparity = forward.disparity;
+    if (!Refine(left, right, p, &disparity)) continue;
+    matches[i] = {true, static_cast<float>(disparity), static_cast<float>(forward.score)};
+  }
+  return matches;
+}
+
+}  // namespace dg::stages

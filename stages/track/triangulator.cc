@@ -1,0 +1,72 @@
+#include "stages/track/triangulator.h"
+
+#include <cmath>
+
+#include <Eigen/Geometry>
+
+#include "sim/error.h"
+#include "stages/camera_model.h"
+
+namespace dg::stages {
+namespace {
+
+Eigen::Vector3d RayOf(const Eigen::Matrix<double, 3, 4>& P, const Eigen::Vector2d& uv) {
+  return {(uv.x() - P(0, 2)) / P(0, 0), (uv.y() - P(1, 2)) / P(1, 1), 1.0};
+}
+
+Eigen::Vector2d PixelOf(const Eigen::Matrix<double, 3, 4>& P, const Eigen::Vector3d& ray) {
+  return {P(0, 0) * ray.x() / ray.z() + P(0, 2), P(1, 1) * ray.y() / ray.z() + P(1, 2)};
+}
+
+bool ToRectified(const io::CameraCalibration& camera, const Eigen::Matrix3d& R, const Eigen::Matrix<double, 3, 4>& P,
+                 const Eigen::Vector2d& uv_px, Eigen::Vector2d* uv_R_px) {
+  Eigen::Vector2d normalized;
+  if (!UndistortPixel(camera, uv_px, &normalized)) return false;
+  *uv_R_px = PixelOf(P, R * normalized.homogeneous());
+  return true;
+}
+
+}  // namespace
+
+Triangulator::Triangulator(const io::StereoCalibration& calibration)
+    : left_(calibration.left), right_(calibration.right) {
+  if (!calibration.rectification)
+    throw Error("the stereo calibration has no rectification", "R1 R2 P1 P2 Q",
+                "rectify the calibration (stereoRectify) before triangulating");
+  rectification_ = *calibration.rectification;
+  const auto& P1 = rectification_.P1;
+  const auto& P2 = rectification_.P2;
+  if (std::abs(P1(1, 2) - P2(1, 2)) > 1e-6 || std::abs(P2(1, 3)) > 1e-9 || std::abs(P2(0, 3)) < 1e-12)
+    throw Error("the rectified cameras are not a horizontal pair", "P1 P2",
+                "rectify with the cameras side by side (stereoRectify of a horizontal rig)");
+}
+
+Eigen::Vector3d Triangulator::Triangulate(const Eigen::Vector2d& uv_left_R_px, double disparity_px) const {
+  const Eigen::Vector4d X = rectification_.Q * Eigen::Vector4d(uv_left_R_px.x(), uv_left_R_px.y(), disparity_px, 1.0);
+  return rectification_.R1.transpose() * (X.head<3>() / X.w());
+}
+
+Eigen::Vector2d Triangulator::LeftToDistorted(const Eigen::Vector2d& uv_R_px) const {
+  return Project(left_, rectification_.R1.transpose() * RayOf(rectification_.P1, uv_R_px));
+}
+
+Eigen::Vector2d Triangulator::RightToDistorted(const Eigen::Vector2d& uv_R_px) const {
+  return Project(right_, rectification_.R2.transpose() * RayOf(rectification_.P2, uv_R_px));
+}
+
+bool Triangulator::LeftToRectified(const Eigen::Vector2d& uv_px, Eigen::Vector2d* uv_R_px) const {
+  return ToRectified(left_, rectification_.R1, rectification_.P1, uv_px, uv_R_px);
+}
+
+bool Triangulator::RightToRectified(const Eigen::Vector2d& uv_px, Eigen::Vector2d* uv_R_px) const {
+  return ToRectified(right_, rectification_.R2, rectification_.P2, uv_px, uv_R_px);
+}
+
+double Triangulator::DisparityAtDepth(double z_m) const {
+  // P2(0,3) = -f B (OpenCV's Tx f), and the principal points may differ by cx1 - cx2.
+  const auto& P1 = rectification_.P1;
+  const auto& P2 = rectification_.P2;
+  return -P2(0, 3) / z_m + (P1(0, 2) - P2(0, 2));
+}
+
+}  // namespace dg::stages

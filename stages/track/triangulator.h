@@ -1,0 +1,39 @@
+#pragma once
+
+#include <Eigen/Core>
+
+#include "io/calibration.h"
+
+namespace dg::stages {
+
+// The geometry of a rectified stereo pair: 3D points from rectified matches,
+// and conversions between rectified (R) and original, distorted pixels.
+// Immutable after construction; every method is const and thread-safe.
+class Triangulator {
+ public:
+  // @throws dg::Error if the calibration has no rectification (R1 R2 P1 P2 Q)
+  // or the rectified cameras are not a horizontal pair.
+  explicit Triangulator(const io::StereoCalibration& calibration);
+
+  // The point in the left camera frame C, metres, of a left rectified pixel and
+  // its disparity (u_left - u_right): [X Y Z W]^T = Q [u v d 1]^T in R, then
+  // X_C = R1^T X_R. @pre disparity_px > 0 (a point in front of both cameras).
+  Eigen::Vector3d Triangulate(const Eigen::Vector2d& uv_left_R_px, double disparity_px) const;
+
+  // Original (distorted) pixel of a rectified pixel, through the ray it sees.
+  Eigen::Vector2d LeftToDistorted(const Eigen::Vector2d& uv_R_px) const;
+  Eigen::Vector2d RightToDistorted(const Eigen::Vector2d& uv_R_px) const;
+
+  // Rectified pixel of an original (distorted) pixel; false if undistortion does not converge.
+  bool LeftToRectified(const Eigen::Vector2d& uv_px, Eigen::Vector2d* uv_R_px) const;
+  bool RightToRectified(const Eigen::Vector2d& uv_px, Eigen::Vector2d* uv_R_px) const;
+
+  // Disparity (px) of a point at depth z_m: f B / z, for choosing a search range.
+  double DisparityAtDepth(double z_m) const;
+
+ private:
+  io::CameraCalibration left_, right_;
+  io::StereoCalibration::Rectification rectification_;
+};
+
+}  // namespace dg::stages
