@@ -1,0 +1,213 @@
+// The tracking front end on the phantom, against its exact ground truth:
+// triangulated depth, temporal drift and fiducial positions.
+#include <algorithm>
+#include <filesystem>
+#include <map>
+
+#include <Eigen/Dense>
+#include <catch2/catch.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "stages/track/feature_tracker.h"
+#include "stages/track/fiducial_tracker.h"
+#include "tests/stages/track/rectified_phantom.h"
+
+namespace dg::stages {
+namespace {
+
+using testing::TruthTracks;
+
+// Three cardiac cycles at 90 bpm (2 s) and a margin for the cycle-to-cycle period variation.
+constexpr double kDurationS = 2.2;
+
+double Percentile(std::vector<double> values, double q) {
+  REQUIRE(!values.empty());
+  const size_t k = static_cast<size_t>(q * (values.size() - 1));
+  std::nth_element(values.begin(), values.begin() + k, values.end());
+  return values[k];
+}
+
+// The truth's surface samples visible in one frame, joined into small
+// triangles (Delaunay in the left image): a material point inside one is the
+// fixed barycentric blend of its corners, in 2D and in 3D. Long edges span
+// the silhouette or gaps and are left out.
+class TruthMesh {
+ public:
+  TruthMesh(const TruthTracks& truth, size_t frame, double max_edge_px) {
+    const auto& uv = truth.uv_left_px[frame];
+    cv::Subdiv2D subdiv(cv::Rect(-1000, -1000, 3000, 3000));
+    std::map<std::pair<float, float>, int> index;
+    for (size_t p = 0; p < uv.size(); ++p) {
+      if (!truth.visible_left[frame][p]) continue;
+      const cv::Point2f q(static_cast<float>(uv[p].x()), static_cast<float>(uv[p].y()));
+      if (index.emplace(std::make_pair(q.x, q.y), static_cast<int>(p)).second) subdiv.insert(q);
+    }
+    std::vector<cv::Vec6f> triangles;
+    subdiv.getTriangleList(triangles);
+    for (const cv::Vec6f& t : triangles) {
+      std::array<int, 3> corners;
+      bool ok = true;
+      for (int k = 0; k < 3 && ok; ++k) {
+        const auto it = index.find({t[2 * k], t[2 * k + 1]});
+        ok = it != index.end();
+        if (ok) corners[k] = it->second;
+      }
+      for (int k = 0; k < 3 && ok; ++k) ok = (uv[corners[k]] - uv[corners[(k + 1) % 3]]).norm() <= max_edge_px;
+      if (ok) triangles_.push_back(corners);
+    }
+    uv_ = uv;
+  }
+
+  // The triangle holding uv and the barycentric weights; false outside the mesh.
+  bool Locate(const Eigen::Vector2d& uv, std::array<int, 3>* corners, Eigen::Vector3d* weights) const {
+    for (const auto& t : triangles_) {
+      const Eigen::Vector2d a = uv_[t[0]], b = uv_[t[1]], c = uv_[t[2]];
+      Eigen::Matrix2d m;
+      m << b - a, c - a;
+      const Eigen::Vector2d st = m.colPivHouseholderQr().solve(uv - a);
+      const Eigen::Vector3d w(1 - st.sum(), st.x(), st.y());
+      if (w.minCoeff() >= 0) {
+        *corners = t;
+        *weights = w;
+        return true;
+      }
+    }
+    return false;
+  }
+
+ private:
+  std::vector<std::array<int, 3>> triangles_;
+  std::vector<Eigen::Vector2d> uv_;
+};
+
+// The phantom is seen at 4 to 30 cm (the mount plane behind the heart included).
+StereoMatcher::Options PhantomStereoOptions(const Triangulator& geometry) {
+  StereoMatcher::Options options;
+  options.min_disparity_px = std::max(0.0, std::floor(geometry.DisparityAtDepth(0.30)));
+  options.max_disparity_px = std::ceil(geometry.DisparityAtDepth(0.04));
+  return options;
+}
+
+struct TrackingRun {
+  testing::RectifiedPhantom scene;
+  TruthTracks truth, fiducials;
+  std::vector<TrackFrame> frames;
+};
+
+TrackingRun Run() {
+  TrackingRun r;
+  const std::string dir = testing::GeneratePhantomScene("track", kDurationS);
+  r.scene = testing::LoadRectified(dir);
+  r.truth = testing::ReadTruth(dir, "/surface_points");
+  r.fiducials = testing::ReadTruth(dir, "/fiducials");
+  std::filesystem::remove_all(dir);
+  FeatureTracker::Options options;
+  options.stereo = PhantomStereoOptions(Triangulator(r.scene.calibration));
+  FeatureTracker tracker(options, r.scene.calibration);
+  for (size_t f = 0; f < r.scene.left_R.size(); ++f)
+    r.frames.push_back(tracker.Process(r.scene.left_R[f], r.scene.right_R[f]));
+  return r;
+}
+
+// Why this measure: the truth's surface samples are sparse, so each track's
+// 3D point is compared with the true surface point seen at the same left
+// pixel, interpolated within the small truth triangle around it (the surface
+// between samples a few pixels apart is flat to well under 0.01 mm). This
+// measures the error along the viewing ray, i.e. of the stereo disparity,
+// without favouring the tracker's own choice of points.
+void CheckSurfaceError(const TrackingRun& run) {
+  std::vector<double> error_mm;
+  size_t points = 0;
+  for (size_t f = 0; f < run.frames.size(); ++f) {
+    const TruthMesh mesh(run.truth, f, 25.0);
+    for (const TrackedPoint& p : run.frames[f].points) {
+      ++points;
+      std::array<int, 3> corners;
+      Eigen::Vector3d w;
+      if (!mesh.Locate(p.uv_left_px, &corners, &w)) continue;
+      Eigen::Vector3d xyz = Eigen::Vector3d::Zero();
+      for (int k = 0; k < 3; ++k) xyz += w[k] * run.truth.xyz_C_m[f][corners[k]];
+      error_mm.push_back(1e3 * (p.xyz_C_m - xyz).norm());
+    }
+  }
+  const double median = Percentile(error_mm, 0.5), p95 = Percentile(error_mm, 0.95);
+  WARN("frames " << run.frames.size() << ", points " << points << ", on the truth mesh " << error_mm.size()
+                 << ", 3D error median " << median << " mm, p95 " << p95 << " mm");
+  CHECK(run.frames.back().tracked >= 400);
+  CHECK(median <= 0.5);
+  CHECK(p95 <= 1.5);
+}
+
+// A track's material point is fixed by where it started: its barycentric
+// weights in the first frame's truth triangle, applied to the same truth
+// points in the last frame.
+void CheckDrift(const TrackingRun& run) {
+  const size_t last = run.frames.size() - 1;
+  const TruthMesh first_mesh(run.truth, 0, 25.0);
+  std::map<std::int64_t, Eigen::Vector2d> at_end;
+  for (const TrackedPoint& p : run.frames[last].points) at_end[p.id] = p.uv_left_px;
+  std::vector<double> drift_px;
+  for (const TrackedPoint& p : run.frames[0].points) {
+    const auto end = at_end.find(p.id);
+    std::array<int, 3> corners;
+    Eigen::Vector3d w;
+    if (end == at_end.end() || !first_mesh.Locate(p.uv_left_px, &corners, &w)) continue;
+    Eigen::Vector2d truth = Eigen::Vector2d::Zero();
+    bool visible = true;
+    for (int k = 0; k < 3; ++k) {
+      truth += w[k] * run.truth.uv_left_px[last][corners[k]];
+      visible = visible && run.truth.visible_left[last][corners[k]];
+    }
+    if (visible) drift_px.push_back((end->second - truth).norm());
+  }
+  const double median = Percentile(drift_px, 0.5);
+  WARN("tracks from frame 0 to " << last << ": " << drift_px.size() << ", drift median " << median << " px, p95 "
+                                 << Percentile(drift_px, 0.95) << " px");
+  CHECK(drift_px.size() >= 100);
+  CHECK(median <= 0.5);
+}
+
+void CheckFiducials(const TrackingRun& run) {
+  const TruthTracks& fiducials = run.fiducials;
+  const Triangulator geometry(run.scene.calibration);
+  std::vector<cv::Point2f> start;
+  for (const Eigen::Vector2d& uv : fiducials.uv_left_px[0]) {
+    Eigen::Vector2d uv_R;
+    REQUIRE(geometry.LeftToRectified(uv, &uv_R));
+    start.emplace_back(static_cast<float>(uv_R.x()), static_cast<float>(uv_R.y()));
+  }
+  FiducialTracker::Options options;
+  options.stereo = PhantomStereoOptions(geometry);
+  FiducialTracker tracker(options, start);
+  std::vector<double> left_px, right_px;
+  for (size_t f = 0; f < run.scene.left_R.size(); ++f) {
+    const std::vector<FiducialObservation> seen = tracker.Process(run.scene.left_R[f], run.scene.right_R[f]);
+    for (size_t i = 0; i < seen.size(); ++i) {
+      if (!seen[i].valid) continue;
+      const Eigen::Vector2d l(seen[i].uv_left_R_px.x, seen[i].uv_left_R_px.y);
+      const Eigen::Vector2d r(seen[i].uv_right_R_px.x, seen[i].uv_right_R_px.y);
+      if (fiducials.visible_left[f][i])
+        left_px.push_back((geometry.LeftToDistorted(l) - fiducials.uv_left_px[f][i]).norm());
+      if (fiducials.visible_right[f][i])
+        right_px.push_back((geometry.RightToDistorted(r) - fiducials.uv_right_px[f][i]).norm());
+    }
+  }
+  const double left = Percentile(left_px, 0.5), right = Percentile(right_px, 0.5);
+  WARN("fiducial observations " << left_px.size() << " left, " << right_px.size() << " right; median error " << left
+                                << " px left, " << right << " px right");
+  CHECK(left_px.size() >= 0.8 * fiducials.uv_left_px[0].size() * run.scene.left_R.size());
+  CHECK(left <= 0.3);
+  CHECK(right <= 0.3);
+}
+
+// One test case, so that the scene is generated and tracked once (CTest runs
+// each test case in a process of its own).
+TEST_CASE("feature and fiducial trackers: phantom 3D error, drift and fiducial error", "[stages][integration]") {
+  const TrackingRun run = Run();
+  CheckSurfaceError(run);
+  CheckDrift(run);
+  CheckFiducials(run);
+}
+
+}  // namespace
+}  // namespace dg::stages

@@ -1,0 +1,117 @@
+#include "tests/stages/track/rectified_phantom.h"
+
+#include <filesystem>
+
+#include <unistd.h>
+
+#include <Eigen/Core>
+#include <catch2/catch.hpp>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/core/eigen.hpp>
+#include <opencv2/imgproc.hpp>
+#include <opencv2/videoio.hpp>
+
+#include "io/h5_file.h"
+#include "tools/phantom/phantom_generator.h"
+
+namespace dg::stages::testing {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::vector<cv::Mat> ReadGrey(const std::string& path, const cv::Mat& map_x, const cv::Mat& map_y) {
+  cv::VideoCapture capture(path);
+  REQUIRE(capture.isOpened());
+  std::vector<cv::Mat> frames;
+  for (cv::Mat frame, grey; capture.read(frame);) {
+    cv::cvtColor(frame, grey, cv::COLOR_BGR2GRAY);
+    cv::Mat rectified;  // a new buffer per frame: remap would reuse one of the same size
+    cv::remap(grey, rectified, map_x, map_y, cv::INTER_LINEAR);
+    frames.push_back(rectified);
+  }
+  return frames;
+}
+
+}  // namespace
+
+std::string GeneratePhantomScene(const std::string& name, double duration_s) {
+  // One folder per process: test processes run concurrently (ctest -j).
+  const std::string dir =
+      (fs::temp_directory_path() / ("dg_track_test_" + name + "_" + std::to_string(::getpid()))).string();
+  fs::remove_all(dir);
+  tools::phantom::PhantomSpec spec = tools::phantom::PresetSpec("default");
+  spec.duration_s = duration_s;
+  tools::phantom::GeneratePhantom(spec, dir, false);
+  return dir;
+}
+
+void AddRectification(io::StereoCalibration* calibration) {
+  const io::StereoCalibration& c = *calibration;
+  cv::Mat K1, K2, R, T, R1, R2, P1, P2, Q;
+  cv::eigen2cv(c.left.K, K1);
+  cv::eigen2cv(c.right.K, K2);
+  cv::eigen2cv(c.R, R);
+  cv::eigen2cv(c.T_m, T);
+  const cv::Mat D1(1, 8, CV_64F, const_cast<double*>(c.left.distortion.data()));
+  const cv::Mat D2(1, 8, CV_64F, const_cast<double*>(c.right.distortion.data()));
+  cv::stereoRectify(K1, D1, K2, D2, cv::Size(c.left.width, c.left.height), R, T, R1, R2, P1, P2, Q,
+                    cv::CALIB_ZERO_DISPARITY, 0);
+  io::StereoCalibration::Rectification rectification;
+  cv::cv2eigen(R1, rectification.R1);
+  cv::cv2eigen(R2, rectification.R2);
+  cv::cv2eigen(P1, rectification.P1);
+  cv::cv2eigen(P2, rectification.P2);
+  cv::cv2eigen(Q, rectification.Q);
+  calibration->rectification = rectification;
+}
+
+RectifiedPhantom LoadRectified(const std::string& scene_dir) {
+  RectifiedPhantom scene;
+  scene.calibration = io::ReadStereoCalibration(scene_dir + "/calibration.yaml");
+  AddRectification(&scene.calibration);
+  const auto read_eye = [&](const io::CameraCalibration& camera, const Eigen::Matrix3d& R_rect,
+                            const Eigen::Matrix<double, 3, 4>& P_rect, const std::string& video) {
+    cv::Mat K, R, P, map_x, map_y;
+    cv::eigen2cv(camera.K, K);
+    cv::eigen2cv(R_rect, R);
+    cv::eigen2cv(P_rect, P);
+    const cv::Mat D(1, 8, CV_64F, const_cast<double*>(camera.distortion.data()));
+    cv::initUndistortRectifyMap(K, D, R, P, cv::Size(camera.width, camera.height), CV_32FC1, map_x, map_y);
+    return ReadGrey(scene_dir + "/video/" + video, map_x, map_y);
+  };
+  const auto& rectification = *scene.calibration.rectification;
+  scene.left_R = read_eye(scene.calibration.left, rectification.R1, rectification.P1, "left.avi");
+  scene.right_R = read_eye(scene.calibration.right, rectification.R2, rectification.P2, "right.avi");
+  REQUIRE(scene.left_R.size() == scene.right_R.size());
+  return scene;
+}
+
+TruthTracks ReadTruth(const std::string& scene_dir, const std::string& group) {
+  const io::H5Reader truth(scene_dir + "/truth.h5");
+  io::H5Shape shape;
+  const std::vector<double> uv_left = truth.Read<double>(group + "/uv_left_px", &shape);
+  const std::vector<double> uv_right = truth.Read<double>(group + "/uv_right_px");
+  const std::vector<double> xyz = truth.Read<double>(group + "/xyz_C_m");
+  const std::vector<std::uint8_t> visible_left = truth.Read<std::uint8_t>(group + "/visible_left");
+  const std::vector<std::uint8_t> visible_right = truth.Read<std::uint8_t>(group + "/visible_right");
+  const size_t frames = shape[0], points = shape[1];
+  TruthTracks tracks;
+  tracks.uv_left_px.resize(frames);
+  tracks.uv_right_px.resize(frames);
+  tracks.xyz_C_m.resize(frames);
+  tracks.visible_left.resize(frames);
+  tracks.visible_right.resize(frames);
+  for (size_t f = 0; f < frames; ++f) {
+    for (size_t p = 0; p < points; ++p) {
+      const size_t i = f * points + p;
+      tracks.uv_left_px[f].emplace_back(uv_left[2 * i], uv_left[2 * i + 1]);
+      tracks.uv_right_px[f].emplace_back(uv_right[2 * i], uv_right[2 * i + 1]);
+      tracks.xyz_C_m[f].emplace_back(xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]);
+      tracks.visible_left[f].push_back(visible_left[i] != 0);
+      tracks.visible_right[f].push_back(visible_right[i] != 0);
+    }
+  }
+  return tracks;
+}
+
+}  // namespace dg::stages::testing
