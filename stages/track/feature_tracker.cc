@@ -53,8 +53,12 @@ TrackFrame FeatureTracker::Process(const cv::Mat& left_R, const cv::Mat& right_R
   }
 
   std::vector<cv::Point2f> points;
-  for (const Track& t : tracks_) points.push_back(t.uv_R);
-  const std::vector<StereoMatch> matches = stereo_.Match(left_R, right_R, points);
+  std::vector<float> expected;
+  for (const Track& t : tracks_) {
+    points.push_back(t.uv_R);
+    expected.push_back(t.disparity);
+  }
+  const std::vector<StereoMatch> matches = stereo_.Match(left_R, right_R, points, &expected);
   std::vector<Track> kept;
   for (size_t i = 0; i < tracks_.size(); ++i) {
     Track& t = tracks_[i];

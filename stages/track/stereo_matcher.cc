@@ -1,5 +1,6 @@
 #include "stages/track/stereo_matcher.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include <opencv2/imgproc.hpp>
@@ -51,6 +52,7 @@ std::string StereoMatcher::Options::Validate() const {
   if (uniqueness_margin < 0) return "uniqueness_margin must not be negative";
   if (left_right_tolerance_px <= 0) return "left_right_tolerance_px must be positive";
   if (refine_iterations < 0) return "refine_iterations must not be negative";
+  if (expected_window_px < 1) return "expected_window_px must be at least 1";
   return {};
 }
 
@@ -60,10 +62,8 @@ StereoMatcher::StereoMatcher(const Options& options) : options_(options) {
 }
 
 StereoMatcher::Peak StereoMatcher::SearchRow(const cv::Mat& from, const cv::Mat& to, const cv::Point2f& p,
-                                             int direction) const {
+                                             int direction, int d_min, int d_max) const {
   const int h = options_.half_window_px;
-  const int d_min = static_cast<int>(std::ceil(options_.min_disparity_px));
-  const int d_max = static_cast<int>(std::floor(options_.max_disparity_px));
   const int count = d_max - d_min + 1;
   cv::Mat window, strip, ncc;
   cv::getRectSubPix(from, cv::Size(2 * h + 1, 2 * h + 1), p, window, CV_32F);
@@ -82,7 +82,8 @@ StereoMatcher::Peak StereoMatcher::SearchRow(const cv::Mat& from, const cv::Mat&
   for (int j = 0; j < count; ++j)
     if (inside(j) && std::isfinite(r[j]) && (best < 0 || r[j] > r[best])) best = j;
   Peak peak;
-  if (best < 0 || r[best] < options_.min_score) return peak;
+  // A maximum at either end of the range is not a peak: the true one may lie beyond.
+  if (best <= 0 || best >= count - 1 || r[best] < options_.min_score) return peak;
   // The best elsewhere: beyond the peak's own slopes (as far as they descend).
   int lo = best, hi = best;
   while (lo > 0 && r[lo - 1] < r[lo]) --lo;
@@ -92,11 +93,9 @@ StereoMatcher::Peak StereoMatcher::SearchRow(const cv::Mat& from, const cv::Mat&
     if ((j < lo || j > hi) && inside(j)) second = std::max(second, r[j]);
   if (second > r[best] - options_.uniqueness_margin) return peak;
   double offset = 0;
-  if (best > 0 && best < count - 1) {
-    const double a = r[best - 1], b = r[best], c = r[best + 1];
-    const double curvature = a - 2 * b + c;
-    if (curvature < 0) offset = 0.5 * (a - c) / curvature;
-  }
+  const double a = r[best - 1], b = r[best], c = r[best + 1];
+  const double curvature = a - 2 * b + c;
+  if (curvature < 0) offset = 0.5 * (a - c) / curvature;
   peak.found = true;
   peak.score = r[best];
   peak.disparity = disparity_of(best) + (direction < 0 ? -offset : offset);
@@ -134,15 +133,24 @@ bool StereoMatcher::Refine(const cv::Mat& left, const cv::Mat& right, const cv::
 }
 
 std::vector<StereoMatch> StereoMatcher::Match(const cv::Mat& left, const cv::Mat& right,
-                                              const std::vector<cv::Point2f>& uv_left_px) const {
+                                              const std::vector<cv::Point2f>& uv_left_px,
+                                              const std::vector<float>* expected_disparity_px) const {
   DG_CHECK(left.type() == CV_8UC1 && right.type() == CV_8UC1 && left.size() == right.size());
+  DG_CHECK(expected_disparity_px == nullptr || expected_disparity_px->size() == uv_left_px.size());
   std::vector<StereoMatch> matches(uv_left_px.size());
   for (size_t i = 0; i < uv_left_px.size(); ++i) {
     const cv::Point2f& p = uv_left_px[i];
-    const Peak forward = SearchRow(left, right, p, -1);
+    double lo = options_.min_disparity_px, hi = options_.max_disparity_px;
+    if (expected_disparity_px != nullptr && (*expected_disparity_px)[i] >= 0) {
+      lo = std::max(lo, (*expected_disparity_px)[i] - options_.expected_window_px);
+      hi = std::min(hi, (*expected_disparity_px)[i] + options_.expected_window_px);
+    }
+    const int d_min = static_cast<int>(std::ceil(lo)), d_max = static_cast<int>(std::floor(hi));
+    if (d_max - d_min < 2) continue;
+    const Peak forward = SearchRow(left, right, p, -1, d_min, d_max);
     if (!forward.found) continue;
     const cv::Point2f q(p.x - static_cast<float>(forward.disparity), p.y);
-    const Peak backward = SearchRow(right, left, q, +1);
+    const Peak backward = SearchRow(right, left, q, +1, d_min, d_max);
     if (!backward.found || std::abs(backward.disparity - forward.disparity) > options_.left_right_tolerance_px)
       continue;
     double disparity = forward.disparity;

@@ -34,15 +34,20 @@ class StereoMatcher {
     double uniqueness_margin = 0.03;   // the best NCC must beat the best NCC away from its peak by this
     double left_right_tolerance_px = 1.0;
     int refine_iterations = 10;
+    double expected_window_px = 4;     // search half-width around an expected disparity (tracks known in the last frame)
     std::string Validate() const;  // empty when valid
   };
 
   // @throws dg::Error naming the invalid option.
   explicit StereoMatcher(const Options& options);
 
-  // One match per point. @pre left and right are CV_8UC1 of one size.
-  std::vector<StereoMatch> Match(const cv::Mat& left, const cv::Mat& right,
-                                 const std::vector<cv::Point2f>& uv_left_px) const;
+  // One match per point. Where `expected_disparity_px` (optional, one per
+  // point) is not negative, only expected_window_px either side of it is
+  // searched: a tracked point's disparity changes little between frames, and
+  // the full range costs most of the tracking stage's time.
+  // @pre left and right are CV_8UC1 of one size.
+  std::vector<StereoMatch> Match(const cv::Mat& left, const cv::Mat& right, const std::vector<cv::Point2f>& uv_left_px,
+                                 const std::vector<float>* expected_disparity_px = nullptr) const;
 
   const Options& options() const { return options_; }
 
@@ -51,9 +56,10 @@ class StereoMatcher {
     bool found = false;
     double disparity = 0, score = 0;
   };
-  // The best integer disparity from `from` at p into `to`, along the row;
-  // direction -1 looks left of p (left to right image), +1 right of it.
-  Peak SearchRow(const cv::Mat& from, const cv::Mat& to, const cv::Point2f& p, int direction) const;
+  // The best disparity in [d_min, d_max] from `from` at p into `to`, along
+  // the row; direction -1 looks left of p (left to right image), +1 right of it.
+  Peak SearchRow(const cv::Mat& from, const cv::Mat& to, const cv::Point2f& p, int direction, int d_min,
+                 int d_max) const;
   // Gauss-Newton along x from an initial disparity; false if it does not settle.
   bool Refine(const cv::Mat& left, const cv::Mat& right, const cv::Point2f& p, double* disparity) const;
 

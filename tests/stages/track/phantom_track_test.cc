@@ -64,7 +64,8 @@ class TruthMesh {
       const Eigen::Vector2d a = uv_[t[0]], b = uv_[t[1]], c = uv_[t[2]];
       Eigen::Matrix2d m;
       m << b - a, c - a;
-      const Eigen::Vector2d st = m.colPivHouseholderQr().solve(uv - a);
+      if (std::abs(m.determinant()) < 1e-12) continue;  // degenerate: three samples on a line
+      const Eigen::Vector2d st = m.inverse() * (uv - a);
       const Eigen::Vector3d w(1 - st.sum(), st.x(), st.y());
       if (w.minCoeff() >= 0) {
         *corners = t;
