@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include <opencv2/imgproc.hpp>
+#include <tbb/parallel_for.h>
 
 #include "sim/error.h"
 
@@ -20,27 +21,48 @@ bool Normalize(cv::Mat* window) {
   return true;
 }
 
-// A window of `size` centred at p, bicubic: bilinear sampling (getRectSubPix)
-// smooths differently at each fraction of a pixel and biases the sub-pixel
-// estimate by a few hundredths of a pixel.
-void SampleCubic(const cv::Mat& image, cv::Size size, const cv::Point2f& p, cv::Mat* window) {
-  // Sampled in float from a float copy of the neighbourhood: an 8-bit result would be rounded to whole grey levels.
-  const float x0 = p.x - 0.5f * static_cast<float>(size.width - 1);
-  const float y0 = p.y - 0.5f * static_cast<float>(size.height - 1);
-  const cv::Rect wanted(static_cast<int>(std::floor(x0)) - 2, static_cast<int>(std::floor(y0)) - 2, size.width + 5,
-                        size.height + 5);
-  const cv::Rect roi = wanted & cv::Rect(0, 0, image.cols, image.rows);
-  cv::Mat patch;
-  image(roi).convertTo(patch, CV_32F);
-  cv::Mat map_x(size, CV_32F), map_y(size, CV_32F);
-  for (int r = 0; r < size.height; ++r) {
-    for (int c = 0; c < size.width; ++c) {
-      map_x.at<float>(r, c) = x0 + static_cast<float>(c - roi.x);
-      map_y.at<float>(r, c) = y0 + static_cast<float>(r - roi.y);
-    }
+// Bicubic windows of one size at sub-pixel centres, from a float copy of an
+// image neighbourhood made once: bilinear sampling (getRectSubPix) smooths
+// differently at each fraction of a pixel and biases the sub-pixel estimate by
+// a few hundredths of a pixel; an 8-bit result would be rounded to whole grey
+// levels. The maps and the window are reused, so sampling allocates nothing.
+class CubicSampler {
+ public:
+  // Windows of `size` centred within `reach` px of `centre` along x.
+  CubicSampler(const cv::Mat& image, cv::Size size, const cv::Point2f& centre, int reach)
+      : size_(size), map_x_(size, CV_32F), map_y_(size, CV_32F) {
+    const cv::Point2f origin = Origin(centre);
+    // Two pixels either side for the cubic's support.
+    const cv::Rect wanted(static_cast<int>(std::floor(origin.x)) - 2 - reach,
+                          static_cast<int>(std::floor(origin.y)) - 2, size.width + 5 + 2 * reach, size.height + 5);
+    roi_ = wanted & cv::Rect(0, 0, image.cols, image.rows);
+    image(roi_).convertTo(patch_, CV_32F);
   }
-  cv::remap(patch, *window, map_x, map_y, cv::INTER_CUBIC, cv::BORDER_REPLICATE);
-}
+
+  // The window centred at `centre`; valid until the next call.
+  const cv::Mat& Sample(const cv::Point2f& centre) {
+    const cv::Point2f origin = Origin(centre);
+    for (int r = 0; r < size_.height; ++r) {
+      float* mx = map_x_.ptr<float>(r);
+      float* my = map_y_.ptr<float>(r);
+      for (int c = 0; c < size_.width; ++c) {
+        mx[c] = origin.x + static_cast<float>(c - roi_.x);
+        my[c] = origin.y + static_cast<float>(r - roi_.y);
+      }
+    }
+    cv::remap(patch_, window_, map_x_, map_y_, cv::INTER_CUBIC, cv::BORDER_REPLICATE);
+    return window_;
+  }
+
+ private:
+  cv::Point2f Origin(const cv::Point2f& centre) const {
+    return {centre.x - 0.5f * static_cast<float>(size_.width - 1), centre.y - 0.5f * static_cast<float>(size_.height - 1)};
+  }
+
+  cv::Size size_;
+  cv::Rect roi_;
+  cv::Mat patch_, map_x_, map_y_, window_;
+};
 
 }  // namespace
 
@@ -105,16 +127,19 @@ StereoMatcher::Peak StereoMatcher::SearchRow(const cv::Mat& from, const cv::Mat&
 bool StereoMatcher::Refine(const cv::Mat& left, const cv::Mat& right, const cv::Point2f& p, double* disparity) const {
   const int h = options_.half_window_px;
   const cv::Size size(2 * h + 1, 2 * h + 1);
-  cv::Mat l, wide;
-  SampleCubic(left, size, p, &l);
+  cv::Mat l = CubicSampler(left, size, p, 0).Sample(p).clone();
   if (!Normalize(&l)) return false;
   const double start = *disparity;
+  // The right window and one column either side, for central differences;
+  // the disparity stays within a pixel of its start, so one neighbourhood serves every iteration.
+  CubicSampler right_sampler(right, cv::Size(size.width + 2, size.height),
+                             cv::Point2f(p.x - static_cast<float>(start), p.y), 2);
+  cv::Mat r, gx;
   for (int it = 0; it < options_.refine_iterations; ++it) {
-    // The right window and one column either side, for central differences.
-    const cv::Point2f q(p.x - static_cast<float>(*disparity), p.y);
-    SampleCubic(right, cv::Size(size.width + 2, size.height), q, &wide);
-    cv::Mat r = wide.colRange(1, size.width + 1).clone();
-    cv::Mat gx = 0.5 * (wide.colRange(2, size.width + 2) - wide.colRange(0, size.width));
+    const cv::Mat& wide = right_sampler.Sample(cv::Point2f(p.x - static_cast<float>(*disparity), p.y));
+    wide.colRange(1, size.width + 1).copyTo(r);
+    cv::subtract(wide.colRange(2, size.width + 2), wide.colRange(0, size.width), gx);
+    gx *= 0.5;
     const double mean = cv::mean(r)[0];
     r -= mean;
     const double norm = cv::norm(r);
@@ -124,7 +149,7 @@ bool StereoMatcher::Refine(const cv::Mat& left, const cv::Mat& right, const cv::
     // Minimise sum (R(x - d - delta) - L)^2: R(x - d - delta) ~ R - gx delta.
     const double gg = gx.dot(gx);
     if (gg < 1e-12) return false;
-    const double delta = gx.dot(r - l) / gg;
+    const double delta = (gx.dot(r) - gx.dot(l)) / gg;
     *disparity += delta;
     if (std::abs(*disparity - start) > 1.0) return false;
     if (std::abs(delta) < 1e-3) break;
@@ -138,7 +163,8 @@ std::vector<StereoMatch> StereoMatcher::Match(const cv::Mat& left, const cv::Mat
   DG_CHECK(left.type() == CV_8UC1 && right.type() == CV_8UC1 && left.size() == right.size());
   DG_CHECK(expected_disparity_px == nullptr || expected_disparity_px->size() == uv_left_px.size());
   std::vector<StereoMatch> matches(uv_left_px.size());
-  for (size_t i = 0; i < uv_left_px.size(); ++i) {
+  // Points are independent and each writes only its own slot: the result does not depend on the threads.
+  tbb::parallel_for(std::size_t{0}, uv_left_px.size(), [&](std::size_t i) {
     const cv::Point2f& p = uv_left_px[i];
     double lo = options_.min_disparity_px, hi = options_.max_disparity_px;
     if (expected_disparity_px != nullptr && (*expected_disparity_px)[i] >= 0) {
@@ -146,17 +172,17 @@ std::vector<StereoMatch> StereoMatcher::Match(const cv::Mat& left, const cv::Mat
       hi = std::min(hi, (*expected_disparity_px)[i] + options_.expected_window_px);
     }
     const int d_min = static_cast<int>(std::ceil(lo)), d_max = static_cast<int>(std::floor(hi));
-    if (d_max - d_min < 2) continue;
+    if (d_max - d_min < 2) return;
     const Peak forward = SearchRow(left, right, p, -1, d_min, d_max);
-    if (!forward.found) continue;
+    if (!forward.found) return;
     const cv::Point2f q(p.x - static_cast<float>(forward.disparity), p.y);
     const Peak backward = SearchRow(right, left, q, +1, d_min, d_max);
     if (!backward.found || std::abs(backward.disparity - forward.disparity) > options_.left_right_tolerance_px)
-      continue;
+      return;
     double disparity = forward.disparity;
-    if (!Refine(left, right, p, &disparity)) continue;
+    if (!Refine(left, right, p, &disparity)) return;
     matches[i] = {true, static_cast<float>(disparity), static_cast<float>(forward.score)};
-  }
+  });
   return matches;
 }
 

@@ -24,7 +24,8 @@ struct StereoMatch {
 // sub-pixel: a parabola through the peak and its neighbours, and Gauss-Newton
 // on the zero-mean, unit-variance windows along x only, which removes the
 // parabola's bias towards whole pixels.
-// Stateless; Match() is const and may run on several frames at once.
+// Stateless; Match() is const and may run on several frames at once; within one
+// call the points are matched in parallel (TBB), each writing only its own result.
 class StereoMatcher {
  public:
   struct Options {
