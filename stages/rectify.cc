@@ -57,6 +57,11 @@ RectifyStage::RectifyStage(const Options& options, const io::StereoCalibration& 
   cv::initUndistortRectifyMap(K2, D2, R2, P2, size, CV_16SC2, map1_right_, map2_right_);
   cv::cv2eigen(R1, camera_.R_R_C);
   cv::cv2eigen(R2, R_right_);
+  cv::cv2eigen(R1, rectification_.R1);
+  cv::cv2eigen(R2, rectification_.R2);
+  cv::cv2eigen(P1, rectification_.P1);
+  cv::cv2eigen(P2, rectification_.P2);
+  cv::cv2eigen(Q, rectification_.Q);
   cv::cv2eigen(P1, camera_.P_left);
   cv::cv2eigen(P2, camera_.P_right);
   camera_.f_px = camera_.P_left(0, 0);

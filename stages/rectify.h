@@ -27,7 +27,7 @@ struct RectifiedCamera {
 struct RectifiedPair {
   std::int64_t index = 0;
   double t_s = 0;
-  cv::Mat left, right;  // rectified BGR images of the camera's size
+  cv::Mat left, right;  // rectified images of the camera's size and the frame's type (BGR or grey)
 };
 
 // Rectifies raw stereo pairs. The maps are computed once at construction;
@@ -58,6 +58,9 @@ class RectifyStage {
   RectifiedPair Process(const StereoFrame& frame) const;
 
   const RectifiedCamera& camera() const { return camera_; }
+  // The rectification these maps apply (R1 R2 P1 P2 Q), for the triangulator:
+  // it must be this one, not one stored in the calibration file with another alpha.
+  const io::StereoCalibration::Rectification& rectification() const { return rectification_; }
 
   // Where a pixel of the raw (distorted) image lands in the rectified one:
   // undistortion to 1e-12, the rectifying rotation, then P. std::nullopt when
@@ -69,6 +72,7 @@ class RectifyStage {
   io::StereoCalibration calibration_;
   Eigen::Matrix3d R_right_;  // the right camera's frame to R
   RectifiedCamera camera_;
+  io::StereoCalibration::Rectification rectification_;
   cv::Mat map1_left_, map2_left_, map1_right_, map2_right_;
 };
 

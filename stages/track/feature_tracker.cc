@@ -1,10 +1,22 @@
 #include "stages/track/feature_tracker.h"
 
+#include <chrono>
 #include <cmath>
 
 #include "sim/error.h"
 
 namespace dg::stages {
+namespace {
+
+// Milliseconds since `*start`, which moves on to now: consecutive calls time consecutive parts.
+double Lap(std::chrono::steady_clock::time_point* start) {
+  const auto now = std::chrono::steady_clock::now();
+  const double ms = std::chrono::duration<double, std::milli>(now - *start).count();
+  *start = now;
+  return ms;
+}
+
+}  // namespace
 
 std::string FeatureTracker::Options::Validate() const {
   for (const std::string& error : {detector.Validate(), temporal.Validate(), stereo.Validate()})
@@ -25,7 +37,9 @@ FeatureTracker::FeatureTracker(const Options& options, const io::StereoCalibrati
     throw Error("invalid feature tracker options: " + error, "FeatureTracker::Options", "correct the option");
 }
 
-TrackFrame FeatureTracker::Process(const cv::Mat& left_R, const cv::Mat& right_R) {
+TrackFrame FeatureTracker::Process(const cv::Mat& left_R, const cv::Mat& right_R, TrackTimings* timings) {
+  TrackTimings spent;
+  auto start = std::chrono::steady_clock::now();
   TrackFrame frame;
   TemporalTracker::Pyramid pyramid = temporal_.BuildPyramid(left_R);
   if (!previous_.empty() && !tracks_.empty()) {
@@ -44,6 +58,7 @@ TrackFrame FeatureTracker::Process(const cv::Mat& left_R, const cv::Mat& right_R
     tracks_ = std::move(kept);
   }
   previous_ = std::move(pyramid);
+  spent.temporal_ms = Lap(&start);
 
   if (tracks_.size() < options_.redetect_fraction * options_.detector.target_count) {
     std::vector<cv::Point2f> existing;
@@ -51,6 +66,7 @@ TrackFrame FeatureTracker::Process(const cv::Mat& left_R, const cv::Mat& right_R
     for (const Feature& f : detector_.Detect(left_R, existing)) tracks_.push_back({next_id_++, f.kind, f.uv_R_px});
     frame.detected = static_cast<int>(tracks_.size() - existing.size());
   }
+  spent.detect_ms = Lap(&start);
 
   std::vector<cv::Point2f> points;
   std::vector<float> expected;
@@ -59,6 +75,7 @@ TrackFrame FeatureTracker::Process(const cv::Mat& left_R, const cv::Mat& right_R
     expected.push_back(t.disparity);
   }
   const std::vector<StereoMatch> matches = stereo_.Match(left_R, right_R, points, &expected);
+  spent.stereo_ms = Lap(&start);
   std::vector<Track> kept;
   for (size_t i = 0; i < tracks_.size(); ++i) {
     Track& t = tracks_[i];
@@ -87,6 +104,8 @@ TrackFrame FeatureTracker::Process(const cv::Mat& left_R, const cv::Mat& right_R
   }
   tracks_ = std::move(kept);
   frame.tracked = static_cast<int>(tracks_.size());
+  spent.triangulate_ms = Lap(&start);
+  if (timings) *timings = spent;
   return frame;
 }
 

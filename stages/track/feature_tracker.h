@@ -27,6 +27,15 @@ struct TrackedPoint {
   int age_frames = 0;                           // frames since detection
 };
 
+// Where Process() spent its time, for `dynaguide bench vision`: wall-clock
+// milliseconds of each part of one call.
+struct TrackTimings {
+  double temporal_ms = 0;     // pyramid and Lucas-Kanade from the last frame
+  double detect_ms = 0;       // zero in frames that need no new features
+  double stereo_ms = 0;       // row search and sub-pixel refinement
+  double triangulate_ms = 0;  // 3D points and distorted pixels of the matches
+};
+
 struct TrackFrame {
   std::vector<TrackedPoint> points;  // tracks with a stereo match in this frame
   int tracked = 0;                   // tracks alive after this frame, matched or not
@@ -55,7 +64,8 @@ class FeatureTracker {
   FeatureTracker(const Options& options, const io::StereoCalibration& calibration);
 
   // @pre left_R and right_R are the rectified pair, CV_8UC1, of the same size as every earlier frame.
-  TrackFrame Process(const cv::Mat& left_R, const cv::Mat& right_R);
+  // `timings` (optional) receives the time of each part.
+  TrackFrame Process(const cv::Mat& left_R, const cv::Mat& right_R, TrackTimings* timings = nullptr);
 
   const Triangulator& triangulator() const { return triangulator_; }
 

@@ -1,13 +1,42 @@
-// `dynaguide bench sim`: throughput figures that the README quotes.
+// `dynaguide bench sim|vision`: throughput figures that the README quotes.
 #include <cstdio>
 
 #include <CLI/CLI.hpp>
 
 #include "tools/bench/sim_bench.h"
+#include "tools/bench/vision_bench.h"
 #include "tools/commands.h"
 #include "tools/machine_info.h"
 
 namespace dg::tools {
+namespace {
+
+void PrintMachine() {
+  const MachineInfo machine = ReadMachineInfo();
+  std::printf("machine: %s, %d logical cores, %s, %s\n", machine.cpu_model.c_str(), machine.logical_cores,
+              machine.simd.c_str(), machine.compiler.c_str());
+}
+
+void AddVisionBench(CLI::App& bench) {
+  auto options = std::make_shared<VisionBenchOptions>();
+  auto json_path = std::make_shared<std::string>();
+  CLI::App* vision = bench.add_subcommand("vision", "Stereo front end per frame (capture to triangulation) on the phantom");
+  vision->add_option("--threads", options->threads, "Thread counts")->delimiter(',')->capture_default_str();
+  vision->add_option("--frames", options->frames, "Frames timed per thread count (0: all)")->capture_default_str();
+  vision->add_option("--seconds", options->duration_s, "Length of the generated phantom video")->capture_default_str();
+  vision->add_option("--json", *json_path, "Save the records to this JSON file");
+  vision->callback([options, json_path] {
+    PrintMachine();
+    const std::vector<VisionBenchRecord> records = RunVisionBench(*options, true);
+    std::fputs(VisionBenchTable(records).c_str(), stdout);
+    if (!json_path->empty()) {
+      WriteVisionBenchJson(*json_path, records);
+      std::printf("saved %s\n", json_path->c_str());
+    }
+  });
+}
+
+}  // namespace
 
 void AddBenchCommand(CLI::App& app) {
   CLI::App* bench = app.add_subcommand("bench", "Measure throughput; figures are printed and saved as JSON");
@@ -29,9 +58,7 @@ void AddBenchCommand(CLI::App& app) {
   sim->add_option("--seconds", options->simulated_per_repeat_s, "Simulated seconds per repeat")->capture_default_str();
   sim->add_option("--json", *json_path, "Save the records to this JSON file");
   sim->callback([options, json_path] {
-    const MachineInfo machine = ReadMachineInfo();
-    std::printf("machine: %s, %d logical cores, %s, %s\n", machine.cpu_model.c_str(), machine.logical_cores,
-                machine.simd.c_str(), machine.compiler.c_str());
+    PrintMachine();
     const std::vector<SimBenchRecord> records = RunSimBench(*options, true);
     std::fputs(SimBenchTable(records).c_str(), stdout);
     if (!json_path->empty()) {
@@ -39,6 +66,7 @@ void AddBenchCommand(CLI::App& app) {
       std::printf("saved %s\n", json_path->c_str());
     }
   });
+  AddVisionBench(*bench);
 }
 
 }  // namespace dg::tools

@@ -1,0 +1,37 @@
+#pragma once
+
+#include <string>
+#include <vector>
+
+namespace dg::tools {
+
+struct VisionBenchOptions {
+  std::vector<int> threads{1, 2};
+  int frames = 0;            // frames timed per thread count; 0: all of the phantom's
+  double duration_s = 2.0;   // of the generated phantom video (30 fps)
+};
+
+// One line of the saved table: the interface users script against (issue 4).
+// Times are per stereo frame, in milliseconds; parts are medians over frames.
+struct VisionBenchRecord {
+  int threads = 0;
+  int width = 0, height = 0;
+  int frames = 0;
+  int features = 0;  // median tracked points per frame
+  double ms_median = 0, ms_p95 = 0;
+  double fps = 0;    // 1000 / ms_median
+  double capture_ms = 0, rectify_ms = 0, temporal_ms = 0, detect_ms = 0, stereo_ms = 0, triangulate_ms = 0;
+  double detect_ms_max = 0;  // the worst frame's: detection runs in few frames, so its median hides it
+};
+
+// Capture + rectification + feature tracking on a default-preset phantom
+// (generated into a temporary folder and removed afterwards), per thread count.
+std::vector<VisionBenchRecord> RunVisionBench(const VisionBenchOptions& options, bool progress);
+
+// Writes the records as a JSON list, each with the machine it ran on.
+void WriteVisionBenchJson(const std::string& path, const std::vector<VisionBenchRecord>& records);
+
+// A plain-text (Markdown) table of the records, for the terminal and the README.
+std::string VisionBenchTable(const std::vector<VisionBenchRecord>& records);
+
+}  // namespace dg::tools

@@ -1,0 +1,103 @@
+#include "tools/track/front_end.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+
+#include <opencv2/imgproc.hpp>
+
+#include "io/calibration.h"
+#include "io/scene.h"
+#include "sim/error.h"
+
+namespace dg::tools {
+namespace {
+
+bool IsImagePath(const std::string& path) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+  for (const char* image : {".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".pgm", ".ppm"})
+    if (ext == image) return true;
+  return false;
+}
+
+cv::Mat Grey(const cv::Mat& image) {
+  if (image.channels() == 1) return image;
+  cv::Mat grey;
+  cv::cvtColor(image, grey, image.channels() == 4 ? cv::COLOR_BGRA2GRAY : cv::COLOR_BGR2GRAY);
+  return grey;
+}
+
+double MsSince(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+}
+
+}  // namespace
+
+FrontEnd::FrontEnd(const FrontEndInput& input) {
+  std::string left = input.left, right = input.right, calibration_path = input.calibration;
+  double fps = input.fps;
+  if (!input.scene.empty()) {
+    const io::Scene scene = io::ReadScene(input.scene);
+    left = scene.video.left;
+    right = scene.video.right;
+    if (calibration_path.empty()) calibration_path = scene.calibration;
+    if (fps == 0) fps = scene.video.fps;
+  }
+  if (left.empty() || right.empty())
+    throw Error("no input given", "dynaguide track", "give a scene file, or --left and --right");
+  if (calibration_path.empty())
+    throw Error("no calibration given", "dynaguide track", "give --calib calib.yaml (made by dynaguide calibrate)");
+
+  stages::CaptureStage::Options capture;
+  capture.left_path = left;
+  capture.right_path = right;
+  if (IsImagePath(left)) {
+    capture.layout = stages::CaptureStage::Layout::kImageSequences;
+    capture.fps = fps > 0 ? fps : 1;
+  }
+  capture_ = std::make_unique<stages::CaptureStage>(capture);
+
+  io::StereoCalibration calibration = io::ReadStereoCalibration(calibration_path);
+  rectify_ = std::make_unique<stages::RectifyStage>(stages::RectifyStage::Options{}, calibration);
+  if (rectify_->camera().size != capture_->size()) {
+    throw Error("the video is " + std::to_string(size().width) + "x" + std::to_string(size().height) +
+                    " but the calibration is for " + std::to_string(rectify_->camera().size.width) + "x" +
+                    std::to_string(rectify_->camera().size.height),
+                calibration_path, "use the calibration of the camera and resolution that recorded the video");
+  }
+  calibration.rectification = rectify_->rectification();
+
+  stages::FeatureTracker::Options options;
+  const stages::Triangulator geometry(calibration);
+  options.stereo.min_disparity_px = std::max(0.0, std::floor(geometry.DisparityAtDepth(input.far_m)));
+  options.stereo.max_disparity_px = std::ceil(geometry.DisparityAtDepth(input.near_m));
+  tracker_ = std::make_unique<stages::FeatureTracker>(options, calibration);
+}
+
+void FrontEnd::Skip(std::int64_t count) {
+  for (std::int64_t i = 0; i < count && capture_->Next(); ++i) {
+  }
+}
+
+std::optional<FrontEndFrame> FrontEnd::Next(FrontEndTimings* timings) {
+  FrontEndTimings spent;
+  auto start = std::chrono::steady_clock::now();
+  std::optional<stages::StereoFrame> raw = capture_->Next();
+  if (!raw) return std::nullopt;
+  // Grey before rectification: the tracker needs grey, and remapping one channel is a third of the work.
+  raw->left = Grey(raw->left);
+  raw->right = Grey(raw->right);
+  spent.capture_ms = MsSince(start);
+
+  start = std::chrono::steady_clock::now();
+  const stages::RectifiedPair pair = rectify_->Process(*raw);
+  spent.rectify_ms = MsSince(start);
+
+  FrontEndFrame frame{pair.index, pair.t_s, tracker_->Process(pair.left, pair.right, &spent.track)};
+  if (timings) *timings = spent;
+  return frame;
+}
+
+}  // namespace dg::tools
