@@ -13,5 +13,6 @@ void AddBenchCommand(CLI::App& app);
 void AddCalibrateCommand(CLI::App& app);
 void AddMeshCommand(CLI::App& app);
 void AddPhantomCommand(CLI::App& app);
+void AddTrackCommand(CLI::App& app);
 
 }  // namespace dg::tools

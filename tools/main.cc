@@ -15,6 +15,7 @@ int main(int argc, char** argv) {
   dg::tools::AddCalibrateCommand(app);
   dg::tools::AddMeshCommand(app);
   dg::tools::AddPhantomCommand(app);
+  dg::tools::AddTrackCommand(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -1,0 +1,47 @@
+// `dynaguide track`: the vision front end alone, tracks saved for scripts.
+#include <cstdio>
+#include <regex>
+
+#include <CLI/CLI.hpp>
+
+#include "sim/error.h"
+#include "tools/commands.h"
+#include "tools/track/track_run.h"
+
+namespace dg::tools {
+namespace {
+
+// "A:B", "A:" or ":B" into [first, end); end -1 for "to the last frame".
+void ParseFrameRange(const std::string& text, TrackRunOptions* options) {
+  std::smatch match;
+  if (!std::regex_match(text, match, std::regex(R"((\d*):(\d*))")))
+    throw Error("--frames must be A:B (got '" + text + "')", "--frames", "write e.g. 0:100 for the first 100 frames");
+  if (match[1].length() > 0) options->first_frame = std::stoll(match[1]);
+  if (match[2].length() > 0) options->end_frame = std::stoll(match[2]);
+}
+
+}  // namespace
+
+void AddTrackCommand(CLI::App& app) {
+  auto options = std::make_shared<TrackRunOptions>();
+  auto frames = std::make_shared<std::string>();
+  CLI::App* command = app.add_subcommand("track", "Track surface points in stereo video (capture, rectify, track)");
+  command->add_option("scene", options->input.scene, "Scene file (scene.yaml) naming the video and calibration");
+  command->add_option("--left", options->input.left, "Left video, image sequence (printf or glob) or image");
+  command->add_option("--right", options->input.right, "Right video, image sequence or image");
+  command->add_option("--calib", options->input.calibration, "Stereo calibration YAML (overrides the scene's)");
+  command->add_option("--fps", options->input.fps, "Frame rate of image sequences");
+  command->add_option("--out", options->out_h5, "Tracks as HDF5 (/tracks/...)")->required();
+  command->add_option("--csv", options->out_csv, "Tracks as CSV too");
+  command->add_option("--frames", *frames, "Frame range A:B (B exclusive)");
+  command->callback([options, frames] {
+    if (!frames->empty()) ParseFrameRange(*frames, options.get());
+    options->progress = true;
+    const TrackRunSummary s = RunTrack(*options);
+    std::printf("tracked %d frames: %zu points, %lld tracks, %.1f ms/frame; saved %s%s%s\n", s.frames, s.rows,
+                static_cast<long long>(s.tracks), s.ms_per_frame, options->out_h5.c_str(),
+                options->out_csv.empty() ? "" : " and ", options->out_csv.c_str());
+  });
+}
+
+}  // namespace dg::tools

@@ -1,0 +1,29 @@
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+#include "tools/track/front_end.h"
+
+namespace dg::tools {
+
+struct TrackRunOptions {
+  FrontEndInput input;
+  std::string out_h5;    // required
+  std::string out_csv;   // optional
+  std::int64_t first_frame = 0, end_frame = -1;  // [first, end); end < 0: to the last frame
+  bool progress = false;                          // on stderr
+};
+
+struct TrackRunSummary {
+  int frames = 0;
+  std::size_t rows = 0;    // tracked points summed over frames
+  std::int64_t tracks = 0; // distinct track ids
+  double ms_per_frame = 0; // mean wall time of the front end
+};
+
+// `dynaguide track`: the front end alone over a recording, tracks saved as a TrackTable.
+// @throws dg::Error for bad input (see FrontEnd) or an empty frame range.
+TrackRunSummary RunTrack(const TrackRunOptions& options);
+
+}  // namespace dg::tools
