@@ -134,22 +134,32 @@ bool StereoMatcher::Refine(const cv::Mat& left, const cv::Mat& right, const cv::
   // the disparity stays within a pixel of its start, so one neighbourhood serves every iteration.
   CubicSampler right_sampler(right, cv::Size(size.width + 2, size.height),
                              cv::Point2f(p.x - static_cast<float>(start), p.y), 2);
-  cv::Mat r, gx;
   for (int it = 0; it < options_.refine_iterations; ++it) {
     const cv::Mat& wide = right_sampler.Sample(cv::Point2f(p.x - static_cast<float>(*disparity), p.y));
-    wide.colRange(1, size.width + 1).copyTo(r);
-    cv::subtract(wide.colRange(2, size.width + 2), wide.colRange(0, size.width), gx);
-    gx *= 0.5;
-    const double mean = cv::mean(r)[0];
-    r -= mean;
-    const double norm = cv::norm(r);
+    // R is the window's middle columns; plain loops: these windows are too small for cv::Mat arithmetic to pay.
+    double sum = 0, sum2 = 0;
+    for (int y = 0; y < size.height; ++y) {
+      const float* w = wide.ptr<float>(y) + 1;
+      for (int x = 0; x < size.width; ++x) sum += w[x], sum2 += double(w[x]) * w[x];
+    }
+    const double n = static_cast<double>(size.area());
+    const double mean = sum / n;
+    const double norm = std::sqrt(std::max(0.0, sum2 - n * mean * mean));
     if (norm < 1e-6) return false;
-    r /= norm;
-    gx /= norm;
-    // Minimise sum (R(x - d - delta) - L)^2: R(x - d - delta) ~ R - gx delta.
-    const double gg = gx.dot(gx);
+    // Minimise sum (R(x - d - delta) - L)^2 over zero-mean, unit-norm R: R(x - d - delta) ~ R - gx delta,
+    // with gx the central difference of R.
+    double gg = 0, g_residual = 0;
+    for (int y = 0; y < size.height; ++y) {
+      const float* w = wide.ptr<float>(y);
+      const float* lw = l.ptr<float>(y);
+      for (int x = 0; x < size.width; ++x) {
+        const double g = 0.5 * (double(w[x + 2]) - w[x]) / norm;
+        gg += g * g;
+        g_residual += g * ((w[x + 1] - mean) / norm - lw[x]);
+      }
+    }
     if (gg < 1e-12) return false;
-    const double delta = (gx.dot(r) - gx.dot(l)) / gg;
+    const double delta = g_residual / gg;
     *disparity += delta;
     if (std::abs(*disparity - start) > 1.0) return false;
     if (std::abs(delta) < 1e-3) break;
