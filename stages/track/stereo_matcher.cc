@@ -1,7 +1,9 @@
 #include "stages/track/stereo_matcher.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <vector>
 
 #include <opencv2/imgproc.hpp>
 #include <tbb/parallel_for.h>
@@ -21,16 +23,29 @@ bool Normalize(cv::Mat* window) {
   return true;
 }
 
+// Keys' cubic convolution weights (a = -0.75, as OpenCV's INTER_CUBIC) of the
+// four taps at -1, 0, 1, 2 for a sample at fraction t in [0, 1).
+std::array<float, 4> CubicWeights(float t) {
+  constexpr float a = -0.75f;
+  const float s = 1 - t;
+  const float w0 = ((a * (t + 1) - 5 * a) * (t + 1) + 8 * a) * (t + 1) - 4 * a;
+  const float w1 = ((a + 2) * t - (a + 3)) * t * t + 1;
+  const float w2 = ((a + 2) * s - (a + 3)) * s * s + 1;
+  return {w0, w1, w2, 1 - w0 - w1 - w2};
+}
+
 // Bicubic windows of one size at sub-pixel centres, from a float copy of an
 // image neighbourhood made once: bilinear sampling (getRectSubPix) smooths
 // differently at each fraction of a pixel and biases the sub-pixel estimate by
 // a few hundredths of a pixel; an 8-bit result would be rounded to whole grey
-// levels. The maps and the window are reused, so sampling allocates nothing.
+// levels. Every pixel of a window has the same fractions, so the kernel is one
+// set of separable weights, computed exactly (cv::remap rounds them to 1/32 px).
+// Pixels beyond the image repeat its edge. Sampling allocates nothing.
 class CubicSampler {
  public:
   // Windows of `size` centred within `reach` px of `centre` along x.
   CubicSampler(const cv::Mat& image, cv::Size size, const cv::Point2f& centre, int reach)
-      : size_(size), map_x_(size, CV_32F), map_y_(size, CV_32F) {
+      : size_(size), window_(size, CV_32F), rows_(size.width, 0.0f) {
     const cv::Point2f origin = Origin(centre);
     // Two pixels either side for the cubic's support.
     const cv::Rect wanted(static_cast<int>(std::floor(origin.x)) - 2 - reach,
@@ -41,16 +56,25 @@ class CubicSampler {
 
   // The window centred at `centre`; valid until the next call.
   const cv::Mat& Sample(const cv::Point2f& centre) {
-    const cv::Point2f origin = Origin(centre);
+    const cv::Point2f origin = Origin(centre) - cv::Point2f(static_cast<float>(roi_.x), static_cast<float>(roi_.y));
+    const int x0 = static_cast<int>(std::floor(origin.x)), y0 = static_cast<int>(std::floor(origin.y));
+    const std::array<float, 4> wx = CubicWeights(origin.x - static_cast<float>(x0));
+    const std::array<float, 4> wy = CubicWeights(origin.y - static_cast<float>(y0));
+    const auto clamp_x = [&](int x) { return std::clamp(x, 0, patch_.cols - 1); };
+    const auto clamp_y = [&](int y) { return std::clamp(y, 0, patch_.rows - 1); };
     for (int r = 0; r < size_.height; ++r) {
-      float* mx = map_x_.ptr<float>(r);
-      float* my = map_y_.ptr<float>(r);
-      for (int c = 0; c < size_.width; ++c) {
-        mx[c] = origin.x + static_cast<float>(c - roi_.x);
-        my[c] = origin.y + static_cast<float>(r - roi_.y);
+      std::fill(rows_.begin(), rows_.end(), 0.0f);
+      // Each of the four source rows filtered along x, then summed with the weights along y.
+      for (int j = 0; j < 4; ++j) {
+        const float* in = patch_.ptr<float>(clamp_y(y0 + r + j - 1));
+        for (int c = 0; c < size_.width; ++c) {
+          float sum = 0;
+          for (int i = 0; i < 4; ++i) sum += wx[i] * in[clamp_x(x0 + c + i - 1)];
+          rows_[c] += wy[j] * sum;
+        }
       }
+      std::copy(rows_.begin(), rows_.end(), window_.ptr<float>(r));
     }
-    cv::remap(patch_, window_, map_x_, map_y_, cv::INTER_CUBIC, cv::BORDER_REPLICATE);
     return window_;
   }
 
@@ -61,7 +85,8 @@ class CubicSampler {
 
   cv::Size size_;
   cv::Rect roi_;
-  cv::Mat patch_, map_x_, map_y_, window_;
+  cv::Mat patch_, window_;
+  std::vector<float> rows_;
 };
 
 }  // namespace
