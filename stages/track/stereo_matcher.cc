@@ -89,6 +89,38 @@ class CubicSampler {
   std::vector<float> rows_;
 };
 
+// cv::matchTemplate's TM_CCOEFF_NORMED of a one-row result, summed directly:
+// for windows this small OpenCV's general path costs more than the sums.
+// A flat strip window (no texture) scores 0.
+void NormalizedCrossCorrelation(const cv::Mat& strip, const cv::Mat& window, cv::Mat* ncc) {
+  const int w = window.cols, h = window.rows, count = strip.cols - w + 1;
+  const double n = static_cast<double>(w * h);
+  double window_sum = 0;
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) window_sum += window.at<float>(y, x);
+  const double window_mean = window_sum / n;
+  double window_norm2 = 0;
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) window_norm2 += std::pow(window.at<float>(y, x) - window_mean, 2);
+  ncc->create(1, count, CV_32F);
+  float* out = ncc->ptr<float>(0);
+  for (int j = 0; j < count; ++j) {
+    double sum = 0, sum2 = 0, cross = 0;
+    for (int y = 0; y < h; ++y) {
+      const float* s = strip.ptr<float>(y) + j;
+      const float* t = window.ptr<float>(y);
+      for (int x = 0; x < w; ++x) {
+        sum += s[x];
+        sum2 += double(s[x]) * s[x];
+        cross += (t[x] - window_mean) * s[x];  // the window's zero mean removes the strip's mean
+      }
+    }
+    const double strip_norm2 = std::max(0.0, sum2 - sum * sum / n);
+    const double denominator = std::sqrt(strip_norm2 * window_norm2);
+    out[j] = denominator > 1e-6 ? static_cast<float>(cross / denominator) : 0.0f;
+  }
+}
+
 }  // namespace
 
 std::string StereoMatcher::Options::Validate() const {
@@ -117,7 +149,7 @@ StereoMatcher::Peak StereoMatcher::SearchRow(const cv::Mat& from, const cv::Mat&
   // Column j of the strip's NCC is disparity d_max - j looking left, d_min + j looking right.
   const float centre_x = p.x + direction * 0.5f * static_cast<float>(d_min + d_max);
   cv::getRectSubPix(to, cv::Size(count + 2 * h, 2 * h + 1), cv::Point2f(centre_x, p.y), strip, CV_32F);
-  cv::matchTemplate(strip, window, ncc, cv::TM_CCOEFF_NORMED);
+  NormalizedCrossCorrelation(strip, window, &ncc);
   const auto disparity_of = [&](int j) { return direction < 0 ? d_max - j : d_min + j; };
   // Windows reaching past the image edge see replicated border pixels, not the scene.
   const auto inside = [&](int j) {
