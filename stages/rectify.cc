@@ -27,6 +27,26 @@ std::string SizeText(const cv::Size& size) {
 
 }  // namespace
 
+io::StereoCalibration::Rectification ComputeRectification(const io::StereoCalibration& calibration, double alpha) {
+  const io::CameraCalibration &left = calibration.left, &right = calibration.right;
+  const cv::Size size(left.width, left.height);
+  if (size != cv::Size(right.width, right.height) || size.area() <= 0) {
+    throw Error("the calibration's image sizes differ or are empty (" + SizeText(size) + " and " +
+                    SizeText(cv::Size(right.width, right.height)) + ")",
+                "stereo calibration", "calibrate the pair again with dynaguide calibrate");
+  }
+  cv::Mat R1, R2, P1, P2, Q;
+  cv::stereoRectify(ToCv(left.K), Distortion(left), ToCv(right.K), Distortion(right), size, ToCv(calibration.R),
+                    ToCv(calibration.T_m), R1, R2, P1, P2, Q, cv::CALIB_ZERO_DISPARITY, alpha);
+  io::StereoCalibration::Rectification rectification;
+  cv::cv2eigen(R1, rectification.R1);
+  cv::cv2eigen(R2, rectification.R2);
+  cv::cv2eigen(P1, rectification.P1);
+  cv::cv2eigen(P2, rectification.P2);
+  cv::cv2eigen(Q, rectification.Q);
+  return rectification;
+}
+
 std::string RectifyStage::Options::Validate() const {
   if (!(alpha >= 0 && alpha <= 1)) return "alpha must lie in [0, 1]";
   if (interpolation != cv::INTER_NEAREST && interpolation != cv::INTER_LINEAR &&
@@ -41,29 +61,18 @@ RectifyStage::RectifyStage(const Options& options, const io::StereoCalibration& 
   if (const std::string problem = options.Validate(); !problem.empty()) {
     throw Error(problem, "rectification options", "use alpha in [0, 1] and one of OpenCV's interpolations");
   }
-  const io::CameraCalibration &left = calibration.left, &right = calibration.right;
-  const cv::Size size(left.width, left.height);
-  if (size != cv::Size(right.width, right.height) || size.area() <= 0) {
-    throw Error("the calibration's image sizes differ or are empty (" + SizeText(size) + " and " +
-                    SizeText(cv::Size(right.width, right.height)) + ")",
-                "stereo calibration", "calibrate the pair again with dynaguide calibrate");
-  }
-  const cv::Mat K1 = ToCv(left.K), D1 = Distortion(left), K2 = ToCv(right.K), D2 = Distortion(right);
-  cv::Mat R1, R2, P1, P2, Q;
-  cv::stereoRectify(K1, D1, K2, D2, size, ToCv(calibration.R), ToCv(calibration.T_m), R1, R2, P1, P2, Q,
-                    cv::CALIB_ZERO_DISPARITY, options.alpha);
+  rectification_ = ComputeRectification(calibration, options.alpha);
+  const cv::Size size(calibration.left.width, calibration.left.height);
+  const cv::Mat P1 = ToCv(rectification_.P1), P2 = ToCv(rectification_.P2);
   // Fixed-point maps: remap quantises to 1/32 px with float maps too, and these are faster.
-  cv::initUndistortRectifyMap(K1, D1, R1, P1, size, CV_16SC2, map1_left_, map2_left_);
-  cv::initUndistortRectifyMap(K2, D2, R2, P2, size, CV_16SC2, map1_right_, map2_right_);
-  cv::cv2eigen(R1, camera_.R_R_C);
-  cv::cv2eigen(R2, R_right_);
-  cv::cv2eigen(R1, rectification_.R1);
-  cv::cv2eigen(R2, rectification_.R2);
-  cv::cv2eigen(P1, rectification_.P1);
-  cv::cv2eigen(P2, rectification_.P2);
-  cv::cv2eigen(Q, rectification_.Q);
-  cv::cv2eigen(P1, camera_.P_left);
-  cv::cv2eigen(P2, camera_.P_right);
+  cv::initUndistortRectifyMap(ToCv(calibration.left.K), Distortion(calibration.left), ToCv(rectification_.R1), P1,
+                              size, CV_16SC2, map1_left_, map2_left_);
+  cv::initUndistortRectifyMap(ToCv(calibration.right.K), Distortion(calibration.right), ToCv(rectification_.R2), P2,
+                              size, CV_16SC2, map1_right_, map2_right_);
+  camera_.R_R_C = rectification_.R1;
+  R_right_ = rectification_.R2;
+  camera_.P_left = rectification_.P1;
+  camera_.P_right = rectification_.P2;
   camera_.f_px = camera_.P_left(0, 0);
   camera_.cx_px = camera_.P_left(0, 2);
   camera_.cy_px = camera_.P_left(1, 2);

@@ -30,6 +30,11 @@ struct RectifiedPair {
   cv::Mat left, right;  // rectified images of the camera's size and the frame's type (BGR or grey)
 };
 
+// OpenCV's stereoRectify of a calibrated pair: zero disparity at infinity;
+// alpha 0 keeps only valid pixels, 1 keeps every source pixel.
+// @throws dg::Error if the two cameras' image sizes differ or are empty.
+io::StereoCalibration::Rectification ComputeRectification(const io::StereoCalibration& calibration, double alpha);
+
 // Rectifies raw stereo pairs. The maps are computed once at construction;
 // Process() is const and allocates only its output, so several frames may be
 // rectified at once; within one call both eyes are remapped in parallel.

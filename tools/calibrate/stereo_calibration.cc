@@ -11,6 +11,7 @@
 #include <tbb/parallel_for.h>
 
 #include "sim/error.h"
+#include "stages/rectify.h"
 
 namespace dg::tools::calibrate {
 namespace {
@@ -204,15 +205,12 @@ StereoCalibrationReport CalibrateStereo(const std::vector<ViewPair>& views,
   calibration.right = ToCamera(K2, D2, *image_size, options.model);
   cv::cv2eigen(R, calibration.R);
   cv::cv2eigen(T, calibration.T_m);
-  cv::Mat R1, R2, P1, P2, Q;
-  cv::stereoRectify(K1, D1, K2, D2, *image_size, R, T, R1, R2, P1, P2, Q, cv::CALIB_ZERO_DISPARITY, options.alpha);
-  io::StereoCalibration::Rectification rectification;
-  cv::cv2eigen(R1, rectification.R1);
-  cv::cv2eigen(R2, rectification.R2);
-  cv::cv2eigen(P1, rectification.P1);
-  cv::cv2eigen(P2, rectification.P2);
-  cv::cv2eigen(Q, rectification.Q);
-  calibration.rectification = rectification;
+  calibration.rectification = stages::ComputeRectification(calibration, options.alpha);
+  cv::Mat R1, R2, P1, P2;
+  cv::eigen2cv(calibration.rectification->R1, R1);
+  cv::eigen2cv(calibration.rectification->R2, R2);
+  cv::eigen2cv(Eigen::MatrixXd(calibration.rectification->P1), P1);
+  cv::eigen2cv(Eigen::MatrixXd(calibration.rectification->P2), P2);
   report.epipolar_error_px = MeanRectifiedRowError(K1, D1, R1, P1, K2, D2, R2, P2, left, right);
   return report;
 }

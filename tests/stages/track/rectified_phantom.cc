@@ -12,6 +12,7 @@
 #include <opencv2/videoio.hpp>
 
 #include "io/h5_file.h"
+#include "stages/rectify.h"
 #include "tools/phantom/phantom_generator.h"
 
 namespace dg::stages::testing {
@@ -46,23 +47,7 @@ std::string GeneratePhantomScene(const std::string& name, double duration_s) {
 }
 
 void AddRectification(io::StereoCalibration* calibration) {
-  const io::StereoCalibration& c = *calibration;
-  cv::Mat K1, K2, R, T, R1, R2, P1, P2, Q;
-  cv::eigen2cv(c.left.K, K1);
-  cv::eigen2cv(c.right.K, K2);
-  cv::eigen2cv(c.R, R);
-  cv::eigen2cv(c.T_m, T);
-  const cv::Mat D1(1, 8, CV_64F, const_cast<double*>(c.left.distortion.data()));
-  const cv::Mat D2(1, 8, CV_64F, const_cast<double*>(c.right.distortion.data()));
-  cv::stereoRectify(K1, D1, K2, D2, cv::Size(c.left.width, c.left.height), R, T, R1, R2, P1, P2, Q,
-                    cv::CALIB_ZERO_DISPARITY, 0);
-  io::StereoCalibration::Rectification rectification;
-  cv::cv2eigen(R1, rectification.R1);
-  cv::cv2eigen(R2, rectification.R2);
-  cv::cv2eigen(P1, rectification.P1);
-  cv::cv2eigen(P2, rectification.P2);
-  cv::cv2eigen(Q, rectification.Q);
-  calibration->rectification = rectification;
+  calibration->rectification = ComputeRectification(*calibration, /*alpha=*/0);
 }
 
 RectifiedPhantom LoadRectified(const std::string& scene_dir) {
