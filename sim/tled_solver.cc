@@ -20,9 +20,9 @@ namespace {
 
 // Work is split into fixed chunks so that every partial result (minimum J,
 // kinetic energy) is summed in the same order whatever the thread count.
-// TBB's auto partitioner hands the chunks out: on a shared (virtual) machine a
-// static half-and-half split made the 2-thread rate swing from 85 to 150 M
-// tet-steps/s with the second core's availability; stealing keeps it at 135-140.
+// TBB's auto partitioner hands the chunks out, so a thread that the machine
+// delays (a shared virtual core) takes fewer of them instead of holding up the
+// step, as a fixed half-and-half split would.
 constexpr int kBlocksPerChunk = 8;
 constexpr int kNodesPerChunk = 256;
 
