@@ -86,13 +86,7 @@ Scene ReadScene(const std::string& path) {
   if (!file) throw Error("cannot open the scene file", path, "check the path (dynaguide phantom writes one)");
   std::stringstream text;
   text << file.rdbuf();
-  YAML::Node root;
-  try {
-    root = YAML::Load(text.str());
-  } catch (const YAML::ParserException& e) {
-    throw Error("not valid YAML: " + e.msg, path + ":" + std::to_string(e.mark.line + 1),
-                "correct the syntax (indentation, colons, brackets)");
-  }
+  const YAML::Node root = ParseYaml(text.str(), path);
   const fs::path directory = fs::absolute(path).parent_path();
   const YamlMap top(root, path, "");
   Scene scene;
@@ -107,14 +101,7 @@ Scene ReadScene(const std::string& path) {
   scene.mesh.surface_set = mesh.String("surface_set", scene.mesh.surface_set);
   mesh.RejectUnknown();
 
-  if (top.Has("material")) {
-    const YamlMap map = top.Map("material");
-    scene.material.youngs_modulus_pa = map.Number("youngs_modulus_pa", scene.material.youngs_modulus_pa);
-    scene.material.poissons_ratio = map.Number("poissons_ratio", scene.material.poissons_ratio);
-    scene.material.density_kg_m3 = map.Number("density_kg_m3", scene.material.density_kg_m3);
-    map.RejectUnknown();
-    if (const std::string wrong = scene.material.Validate(); !wrong.empty()) throw Error(wrong, map.Where(), "correct the material");
-  }
+  if (top.Has("material")) scene.material = ReadMaterial(top.Map("material"));
   if (top.Has("preoperative")) scene.preoperative = ReadPreoperative(top.Map("preoperative"), directory);
   if (top.Has("overlays")) scene.overlays = ReadOverlays(top.Map("overlays"), directory);
   scene.calibration = File(top, "calibration", directory);

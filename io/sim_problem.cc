@@ -114,30 +114,14 @@ double PrescribedCondition::RampFraction(double t_s) const {
 
 SimProblem ParseSimProblem(const std::string& yaml_text, const std::string& path,
                            const std::string& base_directory) {
-  YAML::Node root;
-  try {
-    root = YAML::Load(yaml_text);
-  } catch (const YAML::ParserException& e) {
-    throw Error("not valid YAML: " + e.msg, path + ":" + std::to_string(e.mark.line + 1),
-                "correct the syntax (indentation, colons, brackets)");
-  }
-  const YamlMap top(root, path, "");
+  const YamlMap top(ParseYaml(yaml_text, path), path, "");
   SimProblem problem;
   problem.text = yaml_text;
   problem.path = path;
 
   problem.mesh = ParseMesh(top.Map("mesh"), base_directory);
 
-  if (top.Has("material")) {
-    const YamlMap map = top.Map("material");
-    problem.material.youngs_modulus_pa = map.Number("youngs_modulus_pa", problem.material.youngs_modulus_pa);
-    problem.material.poissons_ratio = map.Number("poissons_ratio", problem.material.poissons_ratio);
-    problem.material.density_kg_m3 = map.Number("density_kg_m3", problem.material.density_kg_m3);
-    map.RejectUnknown();
-    if (const std::string wrong = problem.material.Validate(); !wrong.empty()) {
-      throw Error(wrong, map.Where(), "correct the material");
-    }
-  }
+  if (top.Has("material")) problem.material = ReadMaterial(top.Map("material"));
 
   if (top.Has("solver")) {
     const YamlMap map = top.Map("solver");

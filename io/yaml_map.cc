@@ -88,4 +88,25 @@ void YamlMap::RejectUnknown() const {
   }
 }
 
+YAML::Node ParseYaml(const std::string& text, const std::string& path) {
+  try {
+    return YAML::Load(text);
+  } catch (const YAML::ParserException& e) {
+    throw Error("not valid YAML: " + e.msg, path + ":" + std::to_string(e.mark.line + 1),
+                "correct the syntax (indentation, colons, brackets)");
+  }
+}
+
+sim::Material ReadMaterial(const YamlMap& map) {
+  sim::Material material;
+  material.youngs_modulus_pa = map.Number("youngs_modulus_pa", material.youngs_modulus_pa);
+  material.poissons_ratio = map.Number("poissons_ratio", material.poissons_ratio);
+  material.density_kg_m3 = map.Number("density_kg_m3", material.density_kg_m3);
+  map.RejectUnknown();
+  if (const std::string wrong = material.Validate(); !wrong.empty()) {
+    throw Error(wrong, map.Where(), "correct the material");
+  }
+  return material;
+}
+
 }  // namespace dg::io

@@ -6,6 +6,8 @@
 #include <Eigen/Core>
 #include <yaml-cpp/yaml.h>
 
+#include "sim/material.h"
+
 namespace dg::io {
 
 // Strict reading of one YAML mapping: every key read is remembered, and
@@ -45,5 +47,12 @@ class YamlMap {
   std::string key_path_;
   mutable std::set<std::string> known_;
 };
+
+// Parses YAML text. @throws dg::Error naming path:line of a syntax error.
+YAML::Node ParseYaml(const std::string& text, const std::string& path);
+
+// The `material:` block shared by problems and scenes: the paper's values for
+// keys not given. @throws dg::Error for an unknown key or an invalid material.
+sim::Material ReadMaterial(const YamlMap& map);
 
 }  // namespace dg::io
