@@ -33,13 +33,11 @@ TledModel<T>::TledModel(const TetMesh& mesh, const Material& material)
   nodes_.assign(slots * 4, 0);
   dN_dX_.assign(slots * 9, T(0));
   volume_m3_.assign(slots, T(0));
-  element_of_slot_.assign(slots, -1);
   mass_kg_.assign(mesh_.num_nodes(), 0.0);
 
   for (size_t slot = 0; slot < size_t(E); ++slot) {
     const int e = order[slot];
     const size_t b = slot / kLanes, l = slot % kLanes;
-    element_of_slot_[slot] = e;
     // dN/dX from the inverse of the reference edge matrix: for linear shape
     // functions, [dN1; dN2; dN3] = (X1-X0, X2-X0, X3-X0)^-1 (rows: corners).
     Eigen::Matrix3d edges;

@@ -45,8 +45,6 @@ class TledModel {
   const T* block_shape_gradients(int b) const { return dN_dX_.data() + size_t(b) * 9 * kLanes; }
   // Reference volumes of block b: [lane], m^3 (0 for padding).
   const T* block_volumes(int b) const { return volume_m3_.data() + size_t(b) * kLanes; }
-  // The mesh element stored in lane l of block b, or -1 for padding.
-  int element_at(int b, int l) const { return element_of_slot_[size_t(b) * kLanes + l]; }
 
   // Size of the element-major force array the kernel writes: [block][corner][xyz][lane].
   size_t force_array_size() const { return size_t(num_blocks_) * 12 * kLanes; }
@@ -65,7 +63,6 @@ class TledModel {
   AlignedVector<int32_t> nodes_;
   AlignedVector<T> dN_dX_;
   AlignedVector<T> volume_m3_;
-  std::vector<int> element_of_slot_;
   std::vector<int32_t> gather_begin_;
   std::vector<int32_t> gather_offsets_;
   std::vector<double> mass_kg_;
