@@ -1,0 +1,210 @@
+#include "io/h5_table.h"
+
+#include <cstring>
+#include <exception>
+#include <set>
+#include <utility>
+
+#include "io/h5_handle.h"
+#include "sim/error.h"
+#include "sim/log.h"
+
+namespace dg::io {
+namespace {
+
+using h5::Checked;
+using h5::Handle;
+
+hid_t NativeType(H5Type type) {
+  switch (type) {
+    case H5Type::kInt64: return H5T_NATIVE_INT64;
+    case H5Type::kInt32: return H5T_NATIVE_INT32;
+    case H5Type::kUInt8: return H5T_NATIVE_UINT8;
+    case H5Type::kDouble: return H5T_NATIVE_DOUBLE;
+    case H5Type::kFloat: return H5T_NATIVE_FLOAT;
+  }
+  DG_CHECK(false);
+  return -1;
+}
+
+std::size_t SizeOf(H5Type type) {
+  switch (type) {
+    case H5Type::kInt64:
+    case H5Type::kDouble: return 8;
+    case H5Type::kInt32:
+    case H5Type::kFloat: return 4;
+    case H5Type::kUInt8: return 1;
+  }
+  DG_CHECK(false);
+  return 0;
+}
+
+const char* TypeName(H5Type type) {
+  switch (type) {
+    case H5Type::kInt64: return "int64";
+    case H5Type::kInt32: return "int32";
+    case H5Type::kUInt8: return "uint8";
+    case H5Type::kDouble: return "double";
+    case H5Type::kFloat: return "float";
+  }
+  DG_CHECK(false);
+  return "";
+}
+
+// The dimensions of `rows` rows of a column: {rows} or {rows, width}.
+std::vector<hsize_t> Dims(const H5Column& column, std::size_t rows) {
+  if (column.width == 1) return {rows};
+  return {rows, column.width};
+}
+
+// An empty column dataset, unlimited along its rows, chunked and compressed.
+hid_t CreateColumn(hid_t group, const H5Column& column, const H5Table::Options& options,
+                   const std::string& where) {
+  const std::vector<hsize_t> dims = Dims(column, 0);
+  std::vector<hsize_t> max_dims = dims;
+  max_dims[0] = H5S_UNLIMITED;
+  std::vector<hsize_t> chunk = Dims(column, options.chunk_rows);
+  Handle space(Checked(H5Screate_simple(static_cast<int>(dims.size()), dims.data(), max_dims.data()),
+                       "create a dataspace", where),
+               H5Sclose);
+  Handle properties(Checked(H5Pcreate(H5P_DATASET_CREATE), "create properties", where), H5Pclose);
+  Checked(H5Pset_chunk(properties.get(), static_cast<int>(chunk.size()), chunk.data()), "set the chunk size",
+          where);
+  if (options.deflate_level > 0) {
+    Checked(H5Pset_shuffle(properties.get()), "set the shuffle filter", where);
+    Checked(H5Pset_deflate(properties.get(), static_cast<unsigned>(options.deflate_level)),
+            "set deflate compression", where);
+  }
+  // Without modification times, the same rows give the same bytes (as H5Writer's datasets).
+  Checked(H5Pset_obj_track_times(properties.get(), 0), "set properties", where);
+  return Checked(H5Dcreate2(group, column.name.c_str(), NativeType(column.type), space.get(), H5P_DEFAULT,
+                            properties.get(), H5P_DEFAULT),
+                 "create column '" + column.name + "'", where);
+}
+
+}  // namespace
+
+std::string H5Table::Options::Validate() const {
+  if (chunk_rows == 0) return "chunk_rows must be at least 1";
+  if (deflate_level < 0 || deflate_level > 9) return "deflate_level must be 0..9";
+  return "";
+}
+
+H5Table::H5Table(H5Writer& file, const std::string& group, std::vector<H5Column> columns, Options options)
+    : where_(file.path() + ":" + group), columns_(std::move(columns)), options_(options) {
+  if (const std::string problem = options_.Validate(); !problem.empty()) {
+    throw Error("invalid table options: " + problem, where_, "pass valid H5Table::Options");
+  }
+  if (columns_.empty()) throw Error("a table needs at least one column", where_, "name its columns");
+  std::set<std::string> names;
+  for (const H5Column& column : columns_) {
+    if (column.name.empty() || column.name.find('/') != std::string::npos || !names.insert(column.name).second ||
+        column.width == 0) {
+      throw Error("column '" + column.name + "' is empty, contains '/', is named twice or has width 0", where_,
+                  "give each column a distinct plain name and a width of at least 1");
+    }
+  }
+  // Everything written so far through the writer must be on disk before the
+  // second identifier opens the file, so both see one consistent file.
+  file.Flush();
+  file_ = Checked(H5Fopen(file.path().c_str(), H5F_ACC_RDWR, H5P_DEFAULT), "reopen the file", where_);
+  try {
+    Handle link_properties(Checked(H5Pcreate(H5P_LINK_CREATE), "create properties", where_), H5Pclose);
+    Checked(H5Pset_create_intermediate_group(link_properties.get(), 1), "set properties", where_);
+    bool exists = false;
+    H5E_BEGIN_TRY { exists = H5Lexists(file_, group.c_str(), H5P_DEFAULT) > 0; }  // fails for a missing parent
+    H5E_END_TRY;
+    if (exists) {
+      throw Error("the table's group already exists", where_, "append to a new group or write a new file");
+    }
+    Handle group_id(Checked(H5Gcreate2(file_, group.c_str(), link_properties.get(), H5P_DEFAULT, H5P_DEFAULT),
+                            "create the group", where_, "use an absolute path like /timings in a writable file"),
+                    H5Gclose);
+    for (const H5Column& column : columns_) {
+      datasets_.push_back(CreateColumn(group_id.get(), column, options_, where_));
+      buffers_.emplace_back();
+      buffers_.back().reserve(options_.chunk_rows * column.width * SizeOf(column.type));
+    }
+  } catch (...) {
+    for (hid_t dataset : datasets_) H5Dclose(dataset);
+    H5Fclose(file_);
+    throw;
+  }
+}
+
+H5Table::H5Table(H5Table&& other) noexcept
+    : where_(std::move(other.where_)),
+      columns_(std::move(other.columns_)),
+      options_(other.options_),
+      file_(std::exchange(other.file_, -1)),
+      datasets_(std::move(other.datasets_)),
+      buffers_(std::move(other.buffers_)),
+      written_rows_(other.written_rows_),
+      buffered_rows_(std::exchange(other.buffered_rows_, 0)) {
+  other.datasets_.clear();
+}
+
+H5Table::~H5Table() {
+  if (file_ < 0) return;
+  try {
+    Flush();
+  } catch (const std::exception& error) {
+    Logger("io").error("table rows lost on close: {}", error.what());
+  }
+  for (hid_t dataset : datasets_) H5Dclose(dataset);
+  H5Fclose(file_);
+}
+
+void H5Table::Append(std::size_t rows, std::span<const H5Values> columns) {
+  if (columns.size() != columns_.size()) {
+    throw Error("appended " + std::to_string(columns.size()) + " columns to a table of " +
+                    std::to_string(columns_.size()),
+                where_, "pass one block of values per column, in the columns' order");
+  }
+  for (std::size_t c = 0; c < columns.size(); ++c) {
+    const H5Column& column = columns_[c];
+    if (columns[c].type() != column.type || columns[c].count() != rows * column.width) {
+      throw Error("column '" + column.name + "' takes " + std::to_string(rows * column.width) + " " +
+                      TypeName(column.type) + " values for " + std::to_string(rows) + " rows, got " +
+                      std::to_string(columns[c].count()) + " " + TypeName(columns[c].type()),
+                  where_, "convert the values to the column's type and pass width values per row");
+    }
+  }
+  for (std::size_t c = 0; c < columns.size(); ++c) {
+    const auto* bytes = static_cast<const std::byte*>(columns[c].data());
+    buffers_[c].insert(buffers_[c].end(), bytes, bytes + columns[c].count() * SizeOf(columns_[c].type));
+  }
+  buffered_rows_ += rows;
+  if (buffered_rows_ >= options_.chunk_rows) WriteBuffered();
+}
+
+void H5Table::WriteBuffered() {
+  if (buffered_rows_ == 0) return;
+  for (std::size_t c = 0; c < columns_.size(); ++c) {
+    const H5Column& column = columns_[c];
+    const std::vector<hsize_t> total = Dims(column, written_rows_ + buffered_rows_);
+    Checked(H5Dset_extent(datasets_[c], total.data()), "extend column '" + column.name + "'", where_);
+    Handle file_space(Checked(H5Dget_space(datasets_[c]), "get the dataspace", where_), H5Sclose);
+    std::vector<hsize_t> start(total.size(), 0);
+    start[0] = written_rows_;
+    const std::vector<hsize_t> count = Dims(column, buffered_rows_);
+    Checked(H5Sselect_hyperslab(file_space.get(), H5S_SELECT_SET, start.data(), nullptr, count.data(), nullptr),
+            "select the new rows", where_);
+    Handle memory_space(
+        Checked(H5Screate_simple(static_cast<int>(count.size()), count.data(), nullptr), "create a dataspace", where_),
+        H5Sclose);
+    Checked(H5Dwrite(datasets_[c], NativeType(column.type), memory_space.get(), file_space.get(), H5P_DEFAULT,
+                     buffers_[c].data()),
+            "write column '" + column.name + "'", where_);
+    buffers_[c].clear();
+  }
+  written_rows_ += buffered_rows_;
+  buffered_rows_ = 0;
+}
+
+void H5Table::Flush() {
+  WriteBuffered();
+  Checked(H5Fflush(file_, H5F_SCOPE_GLOBAL), "flush the file", where_);
+}
+
+}  // namespace dg::io
