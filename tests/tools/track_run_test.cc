@@ -6,17 +6,21 @@
 #include <set>
 #include <sstream>
 
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <catch2/catch.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/videoio.hpp>
 
+#include "io/calibration.h"
 #include "io/h5_file.h"
 #include "sim/error.h"
 #include "tools/phantom/phantom_generator.h"
 #include "tools/phantom/phantom_spec.h"
+#include "tools/track/front_end.h"
 #include "tools/track/track_run.h"
+#include "tools/track/track_table.h"
 
 namespace dg::tools {
 namespace {
@@ -68,6 +72,7 @@ TEST_CASE("track: a frame range of the tiny phantom to HDF5 and CSV", "[tools][i
     CHECK(h5.Shape(std::string("/tracks/") + column) == io::H5Shape{n, 2});
   CHECK(h5.Shape("/tracks/xyz_C_m") == io::H5Shape{n, 3});
   CHECK(h5.ReadAttribute<std::int64_t>("/tracks", "frames") == 10);
+  CHECK(h5.ReadAttribute<std::int64_t>("/", "complete") == 1);
 
   const std::vector<std::int32_t> frame = h5.Read<std::int32_t>("/tracks/frame");
   const std::vector<std::int32_t> id = h5.Read<std::int32_t>("/tracks/id");
@@ -122,6 +127,77 @@ TEST_CASE("track: a single image pair with a calibration, and an empty frame ran
 
   options.first_frame = 1;
   CHECK_THROWS_WITH(RunTrack(options), Catch::Contains("frame range"));
+}
+
+// A run that dies part-way (here a process that exits without finishing its
+// table) leaves a readable file with every frame it added, marked incomplete.
+TEST_CASE("track: an interrupted run leaves its frames readable, marked incomplete", "[tools][integration]") {
+  FrontEndInput input;
+  input.scene = TinyScene() + "/scene.yaml";
+  FrontEnd front_end(input);
+  std::vector<FrontEndFrame> frames;
+  std::size_t rows = 0;
+  for (int i = 0; i < 4; ++i) {
+    frames.push_back(*front_end.Next());
+    rows += frames.back().tracks.points.size();
+  }
+  const std::string path = TinyScene() + "/interrupted.h5";
+  // The child only writes (no TBB after fork): the tracks were computed here.
+  const pid_t child = fork();
+  REQUIRE(child >= 0);
+  if (child == 0) {
+    auto* table = new TrackTable(path, "");  // never finished nor closed
+    for (const FrontEndFrame& frame : frames) table->Add(frame.index, frame.t_s, frame.tracks);
+    _exit(0);
+  }
+  int status = 0;
+  REQUIRE(waitpid(child, &status, 0) == child);
+  REQUIRE(WIFEXITED(status));
+  const io::H5Reader h5(path);
+  CHECK(h5.ReadAttribute<std::int64_t>("/", "complete") == 0);
+  CHECK(h5.ReadAttribute<std::int64_t>("/tracks", "frames") == 4);
+  CHECK(h5.Shape("/tracks/xyz_C_m") == io::H5Shape{rows, 3});
+  const std::vector<std::int32_t> frame = h5.Read<std::int32_t>("/tracks/frame");
+  CHECK(frame.back() == 3);
+}
+
+// The depth range becomes the disparity range: in a band 6 mm deep around
+// the true surface's median depth, every triangulated point lies in the band
+// (within the one pixel of disparity that rounding the range outwards adds);
+// an empty range is refused.
+TEST_CASE("track: the depth range limits the triangulated depths", "[tools][integration]") {
+  const io::H5Reader truth(TinyScene() + "/truth.h5");
+  io::H5Shape shape;
+  const std::vector<double> xyz_true = truth.Read<double>("/surface_points/xyz_C_m", &shape);
+  std::vector<double> z_true;
+  for (size_t p = 0; p < shape[1]; ++p) z_true.push_back(xyz_true[3 * p + 2]);  // frame 0
+  std::nth_element(z_true.begin(), z_true.begin() + z_true.size() / 2, z_true.end());
+  const double z0 = z_true[z_true.size() / 2];
+
+  TrackRunOptions options;
+  options.input.scene = TinyScene() + "/scene.yaml";
+  options.out_h5 = TinyScene() + "/band.h5";
+  options.end_frame = 3;
+  const TrackRunSummary all = RunTrack(options);
+  options.input.near_m = z0 - 0.003;
+  options.input.far_m = z0 + 0.003;
+  const TrackRunSummary band = RunTrack(options);
+  REQUIRE(band.rows > 0);
+  CHECK(band.rows < all.rows);
+
+  const io::StereoCalibration calibration = io::ReadStereoCalibration(TinyScene() + "/calibration.yaml");
+  const double f_B_px_m = calibration.left.fx() * calibration.T_m.norm();
+  const auto one_pixel_m = [&](double z) { return z * z / f_B_px_m; };
+  const std::vector<double> xyz = io::H5Reader(options.out_h5).Read<double>("/tracks/xyz_C_m");
+  for (size_t i = 0; i < xyz.size(); i += 3) {
+    CHECK(xyz[i + 2] >= options.input.near_m - 1.5 * one_pixel_m(options.input.near_m));
+    CHECK(xyz[i + 2] <= options.input.far_m + 1.5 * one_pixel_m(options.input.far_m));
+  }
+
+  options.input.far_m = options.input.near_m;
+  CHECK_THROWS_WITH(RunTrack(options), Catch::Contains("depth range") && Catch::Contains("--near/--far"));
+  options.input.near_m = 0;
+  CHECK_THROWS_WITH(RunTrack(options), Catch::Contains("depth range"));
 }
 
 }  // namespace

@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <filesystem>
+#include <utility>
 
 #include <opencv2/imgproc.hpp>
 
@@ -69,26 +70,59 @@ FrontEnd::FrontEnd(const FrontEndInput& input) {
   }
   calibration.rectification = rectify_->rectification();
 
+  if (!(input.near_m > 0 && input.near_m < input.far_m) || std::isnan(input.far_m)) {
+    throw Error("the depth range " + std::to_string(input.near_m) + " to " + std::to_string(input.far_m) +
+                    " m is empty or not in front of the camera",
+                "--near/--far", "give 0 < near < far in metres, e.g. --near 0.03 --far 0.3");
+  }
   stages::FeatureTracker::Options options;
   const stages::Triangulator geometry(calibration);
   options.stereo.min_disparity_px = std::max(0.0, std::floor(geometry.DisparityAtDepth(input.far_m)));
   options.stereo.max_disparity_px = std::ceil(geometry.DisparityAtDepth(input.near_m));
+  if (options.stereo.max_disparity_px >= size().width) {
+    throw Error("the near depth " + std::to_string(input.near_m) + " m is a disparity of " +
+                    std::to_string(options.stereo.max_disparity_px) + " px, wider than the image",
+                "--near", "give a larger near depth");
+  }
   tracker_ = std::make_unique<stages::FeatureTracker>(options, calibration);
 }
 
+FrontEnd::~FrontEnd() {
+  try {
+    decoding_.wait();
+  } catch (...) {  // an error of a frame nobody asked for any more
+  }
+}
+
+void FrontEnd::StartCapture() {
+  decoding_started_ = true;
+  decoding_.run([this] {
+    decoded_ = capture_->Next();
+    if (!decoded_) return;
+    // Grey before rectification: the tracker needs grey, and remapping one channel is a third of the work.
+    decoded_->left = Grey(decoded_->left);
+    decoded_->right = Grey(decoded_->right);
+  });
+}
+
+std::optional<stages::StereoFrame> FrontEnd::Captured() {
+  if (!decoding_started_) StartCapture();
+  decoding_.wait();
+  decoding_started_ = false;
+  return std::exchange(decoded_, std::nullopt);
+}
+
 void FrontEnd::Skip(std::int64_t count) {
-  for (std::int64_t i = 0; i < count && capture_->Next(); ++i) {
+  for (std::int64_t i = 0; i < count && Captured(); ++i) {
   }
 }
 
 std::optional<FrontEndFrame> FrontEnd::Next(FrontEndTimings* timings) {
   FrontEndTimings spent;
   auto start = std::chrono::steady_clock::now();
-  std::optional<stages::StereoFrame> raw = capture_->Next();
+  std::optional<stages::StereoFrame> raw = Captured();
   if (!raw) return std::nullopt;
-  // Grey before rectification: the tracker needs grey, and remapping one channel is a third of the work.
-  raw->left = Grey(raw->left);
-  raw->right = Grey(raw->right);
+  StartCapture();  // the next frame, while this one is rectified and tracked
   spent.capture_ms = MsSince(start);
 
   start = std::chrono::steady_clock::now();

@@ -31,7 +31,10 @@ void AddTrackCommand(CLI::App& app) {
   command->add_option("--right", options->input.right, "Right video, image sequence or image");
   command->add_option("--calib", options->input.calibration, "Stereo calibration YAML (overrides the scene's)");
   command->add_option("--fps", options->input.fps, "Frame rate of image sequences");
-  command->add_option("--out", options->out_h5, "Tracks as HDF5 (/tracks/...)")->required();
+  command->add_option("--near", options->input.near_m, "Nearest depth matched, metres (sets the disparity range)")
+      ->capture_default_str();
+  command->add_option("--far", options->input.far_m, "Farthest depth matched, metres")->capture_default_str();
+  command->add_option("--out", options->out_h5, "Tracks as HDF5 (/tracks/..., written as it goes; root attribute complete = 1 at the end)")->required();
   command->add_option("--csv", options->out_csv, "Tracks as CSV too");
   command->add_option("--frames", *frames, "Frame range A:B (B exclusive)");
   command->callback([options, frames] {

@@ -21,7 +21,7 @@ TrackRunSummary RunTrack(const TrackRunOptions& options) {
   }
   front_end.Skip(options.first_frame);
   Progress progress("track", double(end - options.first_frame), options.progress);
-  TrackTable table;
+  TrackTable table(options.out_h5, options.out_csv);
   TrackRunSummary summary;
   std::unordered_set<std::int64_t> ids;
   double total_ms = 0;
@@ -39,8 +39,7 @@ TrackRunSummary RunTrack(const TrackRunOptions& options) {
     progress.Update(summary.frames, detail);
   }
   progress.Finish();
-  table.WriteH5(options.out_h5);
-  if (!options.out_csv.empty()) table.WriteCsv(options.out_csv);
+  table.Finish();
   summary.rows = table.rows();
   summary.tracks = static_cast<std::int64_t>(ids.size());
   summary.ms_per_frame = summary.frames > 0 ? total_ms / summary.frames : 0;

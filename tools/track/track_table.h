@@ -1,35 +1,47 @@
 #pragma once
 
 #include <cstdint>
+#include <fstream>
 #include <string>
-#include <vector>
 
+#include "io/h5_file.h"
+#include "io/h5_table.h"
 #include "stages/track/feature_tracker.h"
 
 namespace dg::tools {
 
 // The tracks of a run as flat columns, one row per tracked point per frame,
-// so that frames append as rows and a reader filters by the frame column.
-// Written as HDF5 (group /tracks, one dataset per column, {rows} or
-// {rows, 2|3}) and as CSV (one header line, the same columns flattened).
+// written as the frames come: HDF5 (group /tracks, one appendable dataset per
+// column, {rows} or {rows, 2|3}) and optionally CSV (one header line, the same
+// columns flattened). Each frame's rows are flushed to disk before the next
+// frame, and the file's root attribute `complete` stays 0 until Finish(), so
+// a run that is interrupted leaves a readable file of the frames it finished,
+// marked incomplete (with /tracks attribute `frames` saying how many).
+// Not thread-safe.
 class TrackTable {
  public:
+  // Creates the files (replacing any of those names); csv_path may be empty.
+  // @throws dg::Error naming a file that cannot be created.
+  TrackTable(const std::string& h5_path, const std::string& csv_path);
+
+  // Appends one frame's tracked points and flushes them.
+  // @throws dg::Error naming the file when writing fails.
   void Add(std::int64_t frame, double t_s, const stages::TrackFrame& tracks);
 
-  std::size_t rows() const { return frame_.size(); }
+  // Marks the HDF5 file complete (root attribute complete = 1).
+  void Finish();
+
+  std::size_t rows() const { return table_.rows(); }
   std::size_t frames() const { return frames_; }
 
-  // @throws dg::Error naming the file when it cannot be written.
-  void WriteH5(const std::string& path) const;
-  void WriteCsv(const std::string& path) const;
-
  private:
+  void AddCsv(std::int64_t frame, double t_s, const stages::TrackFrame& tracks);
+
+  io::H5Writer h5_;
+  io::H5Table table_;
+  std::string csv_path_;
+  std::ofstream csv_;
   std::size_t frames_ = 0;
-  std::vector<std::int32_t> frame_, id_;
-  std::vector<std::uint8_t> kind_;  // 0 corner, 1 MSER
-  std::vector<double> t_s_, quality_;
-  std::vector<double> uv_left_R_px_, uv_right_R_px_, uv_left_px_, uv_right_px_;  // 2 per row
-  std::vector<double> xyz_C_m_;                                                  // 3 per row
 };
 
 }  // namespace dg::tools
