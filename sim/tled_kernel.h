@@ -1,5 +1,7 @@
 #pragma once
 
+#include <span>
+
 #include "sim/tled_model.h"
 
 namespace dg::sim {
@@ -17,6 +19,20 @@ namespace dg::sim {
 template <typename T>
 T ComputeElementForces(const TledModel<T>& model, const T* u, T* forces, int block_begin,
                        int block_end);
+
+// Blocks per unit of parallel work in the element pass. Partial results (the
+// smallest J) are kept per chunk, so they combine in the same order whatever
+// the thread count.
+constexpr int kBlocksPerChunk = 8;
+template <typename T>
+int ElementChunks(const TledModel<T>& model) {
+  return (model.num_blocks() + kBlocksPerChunk - 1) / kBlocksPerChunk;
+}
+
+// ComputeElementForces over all blocks under tbb::parallel_for, chunk c
+// writing its smallest J to chunk_min_J[c]. @pre chunk_min_J.size() == ElementChunks(model)
+template <typename T>
+void ComputeElementForcesParallel(const TledModel<T>& model, const T* u, T* forces, std::span<T> chunk_min_J);
 
 // Sum of the element forces at node a, in the model's fixed order (deterministic).
 template <typename T>

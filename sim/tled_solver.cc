@@ -23,7 +23,6 @@ namespace {
 // TBB's auto partitioner hands the chunks out, so a thread that the machine
 // delays (a shared virtual core) takes fewer of them instead of holding up the
 // step, as a fixed half-and-half split would.
-constexpr int kBlocksPerChunk = 8;
 constexpr int kNodesPerChunk = 256;
 
 int NumChunks(int items, int per_chunk) { return (items + per_chunk - 1) / per_chunk; }
@@ -141,7 +140,7 @@ TledSolver<T>::TledSolver(std::shared_ptr<const TledModel<T>> model, BoundaryCon
   internal_force_.assign(n_dofs, T(0));
   external_force_.assign(n_dofs, T(0));
   reaction_.assign(n_dofs, T(0));
-  chunk_min_J_.assign(NumChunks(model_->num_blocks(), kBlocksPerChunk), T(1));
+  chunk_min_J_.assign(ElementChunks(*model_), T(1));
   chunk_kinetic_.assign(NumChunks(model_->num_nodes(), kNodesPerChunk), 0.0);
   energy_history_.assign(2 * options_.energy_window_steps + 1, 0.0);
 }
@@ -210,16 +209,7 @@ template <typename T>
 void TledSolver<T>::Step(double fraction_end) {
   const TledModel<T>& model = *model_;
   // Element pass: forces of every element at U.
-  tbb::parallel_for(
-      tbb::blocked_range<int>(0, static_cast<int>(chunk_min_J_.size())),
-      [&](const tbb::blocked_range<int>& chunks) {
-        for (int c = chunks.begin(); c != chunks.end(); ++c) {
-          const int begin = c * kBlocksPerChunk;
-          const int end = std::min(begin + kBlocksPerChunk, model.num_blocks());
-          chunk_min_J_[c] = ComputeElementForces(model, u_.data(), element_forces_.data(), begin, end);
-        }
-      },
-      tbb::auto_partitioner());
+  ComputeElementForcesParallel(model, u_.data(), element_forces_.data(), std::span<T>(chunk_min_J_));
 
   // Node pass: gather and central-difference update of every dof as if free,
   // with the kinetic energy of the free dofs (sum of m v^2, scaled below).

@@ -95,6 +95,9 @@ class TledSolver {
   // Current displacement U (3 per node), metres.
   std::span<const T> displacement() const { return {u_.data(), u_.size()}; }
   Eigen::Matrix3Xd DisplacementMatrix() const;
+  // Displacement U- of the step before (3 per node), metres: with displacement(),
+  // the whole state, e.g. to carry it into a solver with other boundary conditions.
+  std::span<const T> previous_displacement() const { return {u_prev_.data(), u_prev_.size()}; }
   // Internal force F(U) of the last step (3 per node), newtons.
   std::span<const T> internal_forces() const { return {internal_force_.data(), internal_force_.size()}; }
   // Force each constrained dof's support exerts on the body at the last step,

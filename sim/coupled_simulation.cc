@@ -1,0 +1,197 @@
+#include "sim/coupled_simulation.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <tbb/parallel_invoke.h>
+
+#include "sim/error.h"
+
+namespace dg::sim {
+namespace {
+
+int RingSlot(long long level) { return static_cast<int>(((level % 3) + 3) % 3); }
+
+}  // namespace
+
+std::string ToString(SimulationMode mode) {
+  switch (mode) {
+    case SimulationMode::kSurface: return "surface";
+    case SimulationMode::kVolume: return "volume";
+    case SimulationMode::kCombined: return "combined";
+  }
+  return "?";
+}
+
+SimulationMode ParseSimulationMode(const std::string& name) {
+  for (SimulationMode mode : {SimulationMode::kSurface, SimulationMode::kVolume, SimulationMode::kCombined}) {
+    if (ToString(mode) == name) return mode;
+  }
+  throw Error("unknown simulation mode '" + name + "'", "simulation mode", "use surface, volume or combined");
+}
+
+std::string CoupledOptions::Validate() const {
+  if (std::string problem = solver.Validate(); !problem.empty()) return problem;
+  if (solver.time_step_policy == TimeStepPolicy::kSubstep) {
+    return "automatic substepping is not available with recovered forces (they change every step): "
+           "choose dt below the stable limit";
+  }
+  if (!std::isfinite(phase_at_start)) return "phase_at_start must be finite";
+  return {};
+}
+
+template <typename T>
+CoupledSimulation<T>::CoupledSimulation(std::shared_ptr<const TledModel<T>> model,
+                                        std::shared_ptr<const CyclicMotionModel> motion, std::vector<int> fixed_nodes,
+                                        const CoupledOptions& options, const StabilityReport* stability)
+    : model_(std::move(model)), motion_(std::move(motion)), options_(options), fixed_nodes_(std::move(fixed_nodes)) {
+  if (const std::string problem = options_.Validate(); !problem.empty()) {
+    throw Error("invalid simulation options: " + problem, "coupled simulation options", "correct the option");
+  }
+  const int N = model_->num_nodes();
+  if (has_inverse() && !motion_) {
+    throw Error(ToString(options_.mode) + " mode needs the preoperative motion model", "simulation mode",
+                "give the scene's preoperative motion, or use surface mode");
+  }
+  if (motion_ && motion_->dofs() != 3 * N) {
+    throw Error("the motion model has " + std::to_string(motion_->dofs() / 3) + " nodes, the mesh " +
+                    std::to_string(N),
+                model_->mesh().source, "use the motion recorded for this mesh");
+  }
+  for (int a : fixed_nodes_) {
+    if (a < 0 || a >= N) {
+      throw Error("fixed node " + std::to_string(a) + " is out of range", model_->mesh().source,
+                  "give node ids below " + std::to_string(N));
+    }
+  }
+  std::vector<int> fixed_dofs;
+  for (int a : fixed_nodes_) {
+    for (int i = 0; i < 3; ++i) fixed_dofs.push_back(3 * a + i);
+  }
+  stability_ = stability ? *stability : EstimateStability(model_->mesh(), model_->material(), fixed_dofs);
+
+  std::vector<double> u0(3 * size_t(N), 0.0), v0(3 * size_t(N), 0.0);
+  if (motion_) {
+    std::vector<double> before(u0.size());
+    motion_->Evaluate<double>(motion_->PhaseAt(0.0, options_.phase_at_start), u0);
+    motion_->Evaluate<double>(motion_->PhaseAt(-options_.solver.dt_s, options_.phase_at_start), before);
+    for (size_t i = 0; i < u0.size(); ++i) v0[i] = (u0[i] - before[i]) / options_.solver.dt_s;
+  }
+  BuildSolver(u0, v0);
+
+  if (has_inverse()) {
+    recovery_ = std::make_unique<ForceRecovery<T>>(model_, options_.solver);
+    resolution_ = std::make_unique<ForceResolution<T>>(model_);
+    for (auto& level : motion_levels_) level.assign(u0.size(), T(0));
+    // Every recovered force is resolved in the motion model's geometry: check
+    // it at set-up, finely enough to catch a fold between scan phases.
+    const int samples = 4 * motion_->phases();
+    for (int k = 0; k < samples; ++k) {
+      const double phase = double(k) / samples;
+      motion_->Evaluate<T>(phase, motion_levels_[0]);
+      resolution_->CheckGeometry(motion_levels_[0], "the motion model at phase " + std::to_string(phase));
+    }
+    recovered_.assign(u0.size(), T(0));
+    weights_.assign(resolution_->weights_size(), T(0));
+    next_weights_.assign(resolution_->weights_size(), T(0));
+    applied_.assign(u0.size(), T(0));
+    applied_n_.assign(u0.size(), 0.0);
+    MotionAtStep(-1, motion_levels_[RingSlot(-1)]);
+    MotionAtStep(0, motion_levels_[RingSlot(0)]);
+    InverseStep(0);
+    std::swap(weights_, next_weights_);
+  }
+}
+
+template <typename T>
+void CoupledSimulation<T>::BuildSolver(std::span<const double> u_m, std::span<const double> v_m_s) {
+  BoundaryConditions conditions;
+  for (int a : fixed_nodes_) {
+    for (int i = 0; i < 3; ++i) conditions.fixed_dofs.push_back(3 * a + i);
+  }
+  for (int a : constrained_nodes_) {
+    for (int i = 0; i < 3; ++i) conditions.prescribed_dofs.push_back(3 * a + i);
+  }
+  solver_ = std::make_unique<TledSolver<T>>(model_, std::move(conditions), options_.solver, &stability_);
+  solver_->SetState(u_m, v_m_s);
+}
+
+template <typename T>
+void CoupledSimulation<T>::SetConstrainedNodes(std::vector<int> nodes) {
+  std::sort(nodes.begin(), nodes.end());
+  if (nodes == constrained_nodes_) return;
+  for (int a : nodes) {
+    if (a < 0 || a >= model_->num_nodes() || std::binary_search(fixed_nodes_.begin(), fixed_nodes_.end(), a)) {
+      throw Error("node " + std::to_string(a) + " cannot be constrained: it is out of range or fixed",
+                  "constrained nodes", "constrain free surface nodes only");
+    }
+  }
+  // Carry the state over: U stays, U- = U - v dt with v the step's velocity.
+  const std::span<const T> u = solver_->displacement(), u_prev = solver_->previous_displacement();
+  std::vector<double> u_m(u.begin(), u.end()), v_m_s(u.size());
+  for (size_t i = 0; i < u.size(); ++i) v_m_s[i] = (double(u[i]) - double(u_prev[i])) / options_.solver.dt_s;
+  constrained_nodes_ = std::move(nodes);
+  BuildSolver(u_m, v_m_s);
+}
+
+template <typename T>
+void CoupledSimulation<T>::MotionAtStep(long long step, std::span<T> out) const {
+  DG_CHECK(motion_ != nullptr);
+  motion_->Evaluate<T>(motion_->PhaseAt(double(step) * options_.solver.dt_s, options_.phase_at_start), out);
+}
+
+template <typename T>
+void CoupledSimulation<T>::InverseStep(long long level) {
+  // The ring holds level - 1 and level; level + 1 takes the slot of level - 2.
+  MotionAtStep(level + 1, motion_levels_[RingSlot(level + 1)]);
+  const std::vector<T>& now = motion_levels_[RingSlot(level)];
+  recovery_->Recover(motion_levels_[RingSlot(level - 1)], now, motion_levels_[RingSlot(level + 1)], recovered_);
+  resolution_->Resolve(now, recovered_, next_weights_);
+}
+
+template <typename T>
+void CoupledSimulation<T>::ForwardStep(std::span<const double> targets_m) {
+  if (has_inverse()) {
+    resolution_->Apply(weights_, solver_->displacement(), applied_);
+    std::copy(applied_.begin(), applied_.end(), applied_n_.begin());
+    solver_->SetExternalForces(applied_n_);
+  }
+  solver_->Advance(1, targets_m);
+}
+
+template <typename T>
+void CoupledSimulation<T>::Advance(int steps, std::span<const double> targets_m) {
+  const size_t count = 3 * constrained_nodes_.size();
+  if (targets_m.size() != count) {
+    throw Error("got " + std::to_string(targets_m.size()) + " target values for " +
+                    std::to_string(constrained_nodes_.size()) + " constrained nodes",
+                "coupled simulation, step " + std::to_string(steps_), "give 3 values per constrained node");
+  }
+  const std::span<const T> u = solver_->displacement();
+  target_begin_.resize(count);
+  step_targets_.resize(count);
+  for (size_t k = 0; k < constrained_nodes_.size(); ++k) {
+    for (int i = 0; i < 3; ++i) target_begin_[3 * k + i] = u[3 * size_t(constrained_nodes_[k]) + i];
+  }
+  for (int s = 0; s < steps; ++s) {
+    const double fraction = double(s + 1) / steps;
+    for (size_t k = 0; k < count; ++k) {
+      step_targets_[k] = s + 1 == steps ? targets_m[k] : target_begin_[k] + fraction * (targets_m[k] - target_begin_[k]);
+    }
+    if (!has_inverse()) {
+      ForwardStep(step_targets_);
+    } else if (options_.concurrent) {
+      tbb::parallel_invoke([&] { ForwardStep(step_targets_); }, [&] { InverseStep(steps_ + 1); });
+    } else {
+      ForwardStep(step_targets_);
+      InverseStep(steps_ + 1);
+    }
+    if (has_inverse()) std::swap(weights_, next_weights_);
+    ++steps_;
+  }
+}
+
+template class CoupledSimulation<float>;
+template class CoupledSimulation<double>;
+
+}  // namespace dg::sim

@@ -1,0 +1,115 @@
+#pragma once
+
+#include <memory>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "sim/aligned_vector.h"
+#include "sim/force_resolution.h"
+#include "sim/inverse_dynamics.h"
+#include "sim/motion_model.h"
+#include "sim/tled_solver.h"
+
+namespace dg::sim {
+
+// What drives the image-constrained simulation (issue 7):
+//   kSurface  - positional constraints only (no inverse simulation at all);
+//   kVolume   - forces recovered from the preoperative motion only;
+//   kCombined - both (paper section 2.6).
+enum class SimulationMode { kSurface, kVolume, kCombined };
+std::string ToString(SimulationMode mode);
+// @throws dg::Error for a name other than surface, volume or combined.
+SimulationMode ParseSimulationMode(const std::string& name);
+
+struct CoupledOptions {
+  SimulationMode mode = SimulationMode::kCombined;
+  SolverOptions solver;         // dt_s, damping, stability policy (kSubstep is refused: see below)
+  double phase_at_start = 0;    // the motion model's phase at t = 0
+  bool concurrent = true;       // inverse of the next step beside the forward step; false: one after the other
+  std::string Validate() const;  // empty when valid
+};
+
+// The forward TLED simulation driven by positional constraints and/or by
+// forces recovered from a cyclic motion model, inverse and forward run step by
+// step (paper section 2.6). At step n (t = n dt):
+//   forward:  R_n = Apply(weights_n, U_n) (eq. 5 in the current geometry),
+//             U_{n+1} from the solver's update with R_n and the constraints;
+//   inverse:  R_{n+1} = Recover(Um_n, Um_{n+1}, Um_{n+2}) (eq. 4, motion model
+//             Um at phase_at_start + t / period), weights_{n+1} = Resolve(R_{n+1}, Um_{n+1}).
+// The two are independent, so with `concurrent` they run side by side
+// (tbb::parallel_invoke; each also parallel inside). Only three motion-model
+// levels and two weight sets are kept. Every partial sum runs in fixed chunks,
+// so results are bitwise the same for any thread count and for concurrent or
+// sequential order.
+//
+// The mesh starts in the motion model's geometry at t = 0 with its velocity
+// (at rest in the reference geometry without a motion model); the mount's
+// nodes stay at zero; constrained nodes follow the targets given to Advance().
+// One instance must not be advanced from two threads at once.
+template <typename T>
+class CoupledSimulation {
+ public:
+  // `motion` may be null in surface mode. `stability` (optional) must have been
+  // estimated with at most the fixed nodes held: it then bounds every set of
+  // constrained nodes (holding more nodes only lowers omega_max).
+  // @throws dg::Error for invalid options, a missing or mismatched motion model,
+  // a time step above the safe limit, or a motion model geometry with a
+  // degenerate element at any of 4 samples per scan phase.
+  CoupledSimulation(std::shared_ptr<const TledModel<T>> model, std::shared_ptr<const CyclicMotionModel> motion,
+                    std::vector<int> fixed_nodes, const CoupledOptions& options,
+                    const StabilityReport* stability = nullptr);
+
+  // Nodes held at prescribed targets (all three axes) from now on. Changing the
+  // set rebuilds the forward solver around the same state (positions and velocities).
+  // @throws dg::Error for an out-of-range or fixed node.
+  void SetConstrainedNodes(std::vector<int> nodes);
+  const std::vector<int>& constrained_nodes() const { return constrained_nodes_; }
+
+  // Advances `steps` steps; each constrained node moves linearly from its
+  // current displacement to its target (3 per constrained node, in the order
+  // of constrained_nodes()), reaching it at the last step.
+  // @throws dg::Error as TledSolver::Advance and ForceResolution::Resolve do.
+  void Advance(int steps, std::span<const double> targets_m);
+
+  // The motion model's displacement at step n into out (3 per node).
+  // @pre a motion model was given.
+  void MotionAtStep(long long step, std::span<T> out) const;
+
+  const TledSolver<T>& solver() const { return *solver_; }
+  std::span<const T> displacement() const { return solver_->displacement(); }
+  long long steps_taken() const { return steps_; }
+  double time_s() const { return steps_ * options_.solver.dt_s; }
+  const StabilityReport& stability() const { return stability_; }
+  const CoupledOptions& options() const { return options_; }
+  bool has_inverse() const { return options_.mode != SimulationMode::kSurface; }
+
+ private:
+  void BuildSolver(std::span<const double> u_m, std::span<const double> v_m_s);
+  void InverseStep(long long level);  // weights for `level`, into next_weights_
+  void ForwardStep(std::span<const double> targets_m);
+
+  std::shared_ptr<const TledModel<T>> model_;
+  std::shared_ptr<const CyclicMotionModel> motion_;
+  CoupledOptions options_;
+  StabilityReport stability_;
+  std::vector<int> fixed_nodes_, constrained_nodes_;
+  std::unique_ptr<TledSolver<T>> solver_;
+  long long steps_ = 0;
+
+  // Inverse side: motion levels n, n+1, n+2 in a ring indexed by level % 3.
+  std::unique_ptr<ForceRecovery<T>> recovery_;
+  std::unique_ptr<ForceResolution<T>> resolution_;
+  std::vector<T> motion_levels_[3];
+  std::vector<T> recovered_;
+  AlignedVector<T> weights_, next_weights_;
+  // Forward side: the resolved force in the current geometry, and as the solver takes it.
+  std::vector<T> applied_;
+  std::vector<double> applied_n_;
+  std::vector<double> step_targets_, target_begin_;
+};
+
+extern template class CoupledSimulation<float>;
+extern template class CoupledSimulation<double>;
+
+}  // namespace dg::sim

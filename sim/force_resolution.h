@@ -1,0 +1,79 @@
+#pragma once
+
+#include <memory>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "sim/aligned_vector.h"
+#include "sim/tled_model.h"
+
+namespace dg::sim {
+
+// The element with the smallest volume ratio J = det F at displacement u (3 per
+// node, computed in double), and that J: where a geometry is worst.
+struct WorstElement {
+  int element = -1;
+  double volume_ratio = 0;
+};
+template <typename T>
+WorstElement FindWorstElement(const TetMesh& mesh, const T* u);
+
+// Force resolution (paper eq. 5): a recovered nodal force r at node a, shared
+// equally by the n_a elements of a, is written in each element e as a
+// combination of that element's three edge vectors from a,
+//   r / n_a = w0 b0 + w1 b1 + w2 b2,       b_k = x_{j_k} - x_a,
+// in the geometry in which r was recovered (the motion model's, at that time).
+// Applying the force to another geometry (the constrained forward simulation's)
+// uses the same weights with that geometry's edges, so the force turns and
+// stretches with the element it acts in: under a rigid rotation of the mesh it
+// rotates with it, and where nothing constrains the motion it is r again.
+//
+// Per element, with d_j = x_j - x_0 (j = 1..3) and q = [d1 d2 d3]^-1 (r / n_a):
+// corner 0 has w = q on the edges to corners 1, 2, 3; corner c >= 1 has
+// w_j = q_j on the edges to corners j != 0, c and -(q1 + q2 + q3) on the edge
+// to corner 0 (since x_j - x_c = d_j - d_c). One 3x3 inverse per element serves
+// all four corners. Weights live in the kernel's block layout,
+// [block][corner][edge][lane], edges to the other corners in increasing order.
+//
+// Threading: Resolve() and Apply() run under tbb::parallel_for in fixed
+// chunks: results do not depend on the thread count. They use separate
+// buffers, so one Resolve() and one Apply() may run at once (the coupled
+// simulation does), but not two of the same. Neither allocates.
+template <typename T>
+class ForceResolution {
+ public:
+  // An element whose volume falls below this fraction of its reference volume
+  // has a near-degenerate edge triple: its weights would amplify round-off.
+  static constexpr double kMinVolumeRatio = 0.02;
+
+  explicit ForceResolution(std::shared_ptr<const TledModel<T>> model);
+
+  size_t weights_size() const { return model_->force_array_size(); }
+
+  // Weights of forces_n (3 per node, N) in the geometry X + u_model (3 per node, m).
+  // @throws dg::Error naming the element if an edge triple is degenerate there.
+  void Resolve(std::span<const T> u_model, std::span<const T> forces_n, std::span<T> weights);
+
+  // The nodal forces the weights imply in the geometry X + u (3 per node).
+  void Apply(std::span<const T> weights, std::span<const T> u, std::span<T> forces_n);
+
+  // Set-up check of a geometry the forces will be resolved in; `when` names it
+  // (e.g. "motion model, phase 0.35") in the error.
+  // @throws dg::Error naming the element with the smallest volume ratio if it is below kMinVolumeRatio.
+  void CheckGeometry(std::span<const T> u, const std::string& when) const;
+
+ private:
+  [[noreturn]] void ThrowDegenerate(const WorstElement& worst, const std::string& when) const;
+
+  std::shared_ptr<const TledModel<T>> model_;
+  AlignedVector<T> X_;              // reference positions, 3 per node
+  std::vector<T> inverse_count_;    // per node: 1 / (number of its elements)
+  AlignedVector<T> corner_forces_;  // Apply()'s element-major forces, as the TLED kernel's
+  std::vector<T> chunk_min_ratio_;  // Resolve()'s smallest volume ratio per chunk
+};
+
+extern template class ForceResolution<float>;
+extern template class ForceResolution<double>;
+
+}  // namespace dg::sim
