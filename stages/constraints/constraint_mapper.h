@@ -1,0 +1,76 @@
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include "stages/constraints/nearest_point_grid.h"
+#include "stages/track/feature_tracker.h"
+
+namespace dg::stages {
+
+// Per-frame positional constraints for the FEM stage, in the scan frame S.
+struct NodeTargets {
+  std::vector<int> nodes;                // constrained this frame, increasing
+  std::vector<double> displacement_S_m;  // 3 per node: target displacement from the reference mesh
+  std::vector<int> features;             // features averaged for each node
+};
+
+// Maps tracked surface features to mesh-node targets (paper section 2.5,
+// DESIGN.md section 5). At the first frame each feature, brought into the scan
+// frame by the registration (x_S = T_C_S^-1 x_C), is tied to its nearest free
+// surface node in the mesh's geometry at that time; the ties persist for the
+// run, and features first seen later are not used. In every frame a tied node's
+// target is its displacement at the first frame plus the mean displacement of
+// its features seen in this frame since the first; a node none of whose
+// features is seen in a frame is not constrained in it. Fixed (mount) nodes are
+// never candidates: the FEM stage holds them at zero.
+// Stateful: frames in order, one at a time (a serial node).
+class ConstraintMapper {
+ public:
+  struct Options {
+    // A feature farther than this from every free surface node (on the mount,
+    // on an instrument, or mis-triangulated) is not tied.
+    double max_tie_distance_m = 3e-3;
+    std::string Validate() const;  // empty when valid
+  };
+
+  // reference_S_m: the mesh's reference nodes (3 x N); first_displacement_S_m:
+  // their displacement at the first frame (the motion model at the registered
+  // phase, or zero); candidates: the surface nodes; fixed: the mount's nodes.
+  // @throws dg::Error for invalid options, mismatched sizes, out-of-range ids
+  // or no free surface node.
+  ConstraintMapper(const Options& options, const Eigen::Matrix3Xd& reference_S_m,
+                   const Eigen::Matrix3Xd& first_displacement_S_m, const std::vector<int>& surface_nodes,
+                   const std::vector<int>& fixed_nodes, const Eigen::Isometry3d& T_C_S);
+
+  // The first call ties the features; every call returns this frame's targets.
+  NodeTargets Process(const std::vector<TrackedPoint>& points);
+
+  int tied_features() const { return static_cast<int>(ties_.size()); }
+  int untied_features() const { return untied_; }  // too far from the surface at the first frame
+  int tied_nodes() const { return tied_nodes_; }
+
+ private:
+  struct Tie {
+    int node;
+    Eigen::Vector3d first_S_m;  // the feature's position at the first frame
+  };
+
+  Options options_;
+  Eigen::Isometry3d T_S_C_;
+  Eigen::Matrix3Xd first_displacement_S_m_;
+  NearestPointGrid grid_;
+  std::unordered_map<std::int64_t, Tie> ties_;
+  bool first_ = true;
+  int untied_ = 0, tied_nodes_ = 0;
+  // Per node, this frame's sum of feature displacements and count (reset each frame).
+  std::vector<Eigen::Vector3d> sum_;
+  std::vector<int> count_;
+};
+
+}  // namespace dg::stages

@@ -1,0 +1,114 @@
+#include "stages/fem_stage.h"
+
+#include <cmath>
+
+#include "io/h5_file.h"
+#include "sim/error.h"
+
+namespace dg::stages {
+
+std::string FemStage::Options::Validate() const {
+  if (!(std::isfinite(dt_s) && dt_s > 0)) return "dt_s must be positive (the paper uses 2e-4 s)";
+  if (!(std::isfinite(fps) && fps > 0)) return "fps must be positive";
+  if (dt_s * fps > 1) return "dt_s must not exceed one frame period (1 / fps)";
+  if (!std::isfinite(phase_at_first_frame)) return "phase_at_first_frame must be finite";
+  if (sampled_nodes < 0) return "sampled_nodes must be zero or positive";
+  return {};
+}
+
+FemStage::FemStage(const Options& options, const sim::TetMesh& mesh, const sim::Material& material,
+                   std::shared_ptr<const sim::CyclicMotionModel> motion, const std::vector<int>& fixed_nodes)
+    : options_(options), reference_S_m_(mesh.X_m) {
+  if (const std::string problem = options_.Validate(); !problem.empty()) {
+    throw Error("invalid FEM stage options: " + problem, "FEM stage options", "correct the option");
+  }
+  sim::CoupledOptions coupled;
+  coupled.mode = options_.mode;
+  coupled.solver.dt_s = options_.dt_s;
+  coupled.solver.damping_per_s = options_.damping_per_s;
+  coupled.phase_at_start = options_.phase_at_first_frame;
+  coupled.concurrent = options_.concurrent;
+  simulation_ = std::make_unique<sim::CoupledSimulation<float>>(
+      std::make_shared<const sim::TledModel<float>>(mesh, material), std::move(motion), fixed_nodes, coupled);
+  const int N = mesh.num_nodes();
+  const int samples = std::min(N, options_.sampled_nodes);
+  for (int k = 0; k < samples; ++k) sampled_nodes_.push_back(static_cast<int>(int64_t(k) * N / samples));
+}
+
+Eigen::Matrix3Xd FemStage::first_displacement_S_m() const {
+  Eigen::Matrix3Xd u = Eigen::Matrix3Xd::Zero(3, reference_S_m_.cols());
+  const std::span<const float> start = simulation_->displacement();
+  for (Eigen::Index a = 0; a < u.cols(); ++a) {
+    for (int i = 0; i < 3; ++i) u(i, a) = start[3 * a + i];
+  }
+  return u;
+}
+
+FemFrameOutput FemStage::Process(int frame, const NodeTargets& targets) {
+  if (frame <= last_frame_) {
+    throw Error("frame " + std::to_string(frame) + " comes after frame " + std::to_string(last_frame_),
+                "FEM stage", "feed frames in increasing order (a serial node behind a sequencer)");
+  }
+  if (targets.displacement_S_m.size() != 3 * targets.nodes.size()) {
+    throw Error("targets hold " + std::to_string(targets.displacement_S_m.size()) + " values for " +
+                    std::to_string(targets.nodes.size()) + " nodes",
+                "FEM stage, frame " + std::to_string(frame), "give 3 values per constrained node");
+  }
+  last_frame_ = frame;
+  sim::CoupledSimulation<float>& simulation = *simulation_;
+  const long long step = std::llround(frame / (options_.fps * options_.dt_s));
+  const long long substeps = step - simulation.steps_taken();
+  // In surface mode nothing but the constraints drives the mesh; in volume
+  // mode the tracked surface is only measured against, not imposed.
+  const bool constrain = options_.mode != sim::SimulationMode::kVolume;
+  simulation.SetConstrainedNodes(constrain ? targets.nodes : std::vector<int>{});
+  simulation.Advance(static_cast<int>(substeps), constrain ? targets.displacement_S_m : std::vector<double>{});
+
+  FemFrameOutput output;
+  FemFrameRecord& record = output.record;
+  record.frame = frame;
+  record.step = simulation.steps_taken();
+  record.time_s = simulation.time_s();
+  record.substeps = static_cast<int>(substeps);
+  const std::span<const float> u = simulation.displacement();
+  output.nodes_S_m = reference_S_m_;
+  for (Eigen::Index a = 0; a < output.nodes_S_m.cols(); ++a) {
+    for (int i = 0; i < 3; ++i) output.nodes_S_m(i, a) += u[3 * a + i];
+  }
+  for (int a : sampled_nodes_) {
+    for (int i = 0; i < 3; ++i) record.sampled_nodes_S_m.push_back(static_cast<float>(output.nodes_S_m(i, a)));
+  }
+  record.kinetic_energy_j = simulation.solver().kinetic_energy_j();
+  record.min_jacobian = simulation.solver().min_jacobian();
+  record.constrained_nodes = static_cast<int>(targets.nodes.size());
+  double sum_sq = 0;
+  for (size_t k = 0; k < targets.nodes.size(); ++k) {
+    double d_sq = 0;
+    for (int i = 0; i < 3; ++i) {
+      const double d = double(u[3 * size_t(targets.nodes[k]) + i]) - targets.displacement_S_m[3 * k + i];
+      d_sq += d * d;
+    }
+    sum_sq += d_sq;
+    record.constraint_residual_max_mm = std::max(record.constraint_residual_max_mm, std::sqrt(d_sq) * 1e3);
+  }
+  if (!targets.nodes.empty()) record.constraint_residual_rms_mm = std::sqrt(sum_sq / targets.nodes.size()) * 1e3;
+  record.dt_over_dt_critical = options_.dt_s / simulation.stability().dt_critical_s;
+  return output;
+}
+
+std::shared_ptr<const sim::CyclicMotionModel> LoadMotionModel(const std::string& scan_h5, int mesh_nodes,
+                                                              double period_s, double smoothing) {
+  const io::H5Reader scan(scan_h5);
+  io::H5Shape shape;
+  const std::vector<double> displacement = scan.Read<double>("/phases/node_displacement_m", &shape);
+  if (shape.size() != 3 || shape[2] != 3 || shape[1] != size_t(mesh_nodes)) {
+    std::string dims;
+    for (size_t d : shape) dims += (dims.empty() ? "" : " x ") + std::to_string(d);
+    throw Error("/phases/node_displacement_m is " + dims + ", expected phases x " + std::to_string(mesh_nodes) + " x 3",
+                scan_h5, "use the motion recorded for the scene's mesh");
+  }
+  return std::make_shared<const sim::CyclicMotionModel>(displacement, static_cast<int>(shape[0]), 3 * mesh_nodes,
+                                                        period_s, smoothing);
+}
+
+}  // namespace dg::stages

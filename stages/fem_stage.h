@@ -1,0 +1,89 @@
+#pragma once
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "sim/coupled_simulation.h"
+#include "sim/motion_model.h"
+#include "sim/tet_mesh.h"
+#include "stages/constraints/constraint_mapper.h"
+
+namespace dg::stages {
+
+// What the FEM stage logs for one video frame (the run log's /sim).
+struct FemFrameRecord {
+  int frame = 0;
+  long long step = 0;                      // simulation step reached: round(t_j / dt)
+  double time_s = 0;                       // step * dt
+  int substeps = 0;                        // steps taken for this frame
+  std::vector<float> sampled_nodes_S_m;    // 3 per sampled node (FemStage::sampled_nodes()), scan frame
+  double kinetic_energy_j = 0;
+  double min_jacobian = 0;                 // smallest element J at the last step
+  int constrained_nodes = 0;
+  // |node displacement - target| over this frame's constrained nodes at the
+  // frame's time: zero where the simulation holds them (surface, combined),
+  // the forces-only model's miss of the tracked surface in volume mode.
+  double constraint_residual_rms_mm = 0, constraint_residual_max_mm = 0;
+  double dt_over_dt_critical = 0;          // stability margin
+};
+
+struct FemFrameOutput {
+  Eigen::Matrix3Xd nodes_S_m;  // every node's position, scan frame, for the overlays
+  FemFrameRecord record;
+};
+
+// The FEM step of the graph (DESIGN.md section 4): per video frame j, advances
+// the image-constrained simulation (sim/coupled_simulation.h) to step
+// round(t_j / dt), t_j = j / fps, with the constrained nodes' targets
+// interpolated linearly across the frame's substeps (166 or 167 at 30 fps and
+// 0.2 ms), so the simulation clock never drifts from the video's. Runs in float.
+// Stateful: frames in increasing order, one at a time (a serial node).
+class FemStage {
+ public:
+  struct Options {
+    sim::SimulationMode mode = sim::SimulationMode::kCombined;
+    double dt_s = 2e-4;
+    double damping_per_s = 75;         // the paper's alpha
+    double fps = 30;
+    double phase_at_first_frame = 0;   // the registration's cardiac phase of frame 0
+    int sampled_nodes = 256;           // nodes logged per frame (evenly spread over the ids)
+    bool concurrent = true;            // inverse beside forward (false: one after the other)
+    std::string Validate() const;      // empty when valid
+  };
+
+  // `motion` may be null in surface mode. fixed_nodes: the mount's.
+  // @throws dg::Error for invalid options, a motion model for another mesh,
+  // an unstable time step or a degenerate motion model (sim::CoupledSimulation).
+  FemStage(const Options& options, const sim::TetMesh& mesh, const sim::Material& material,
+           std::shared_ptr<const sim::CyclicMotionModel> motion, const std::vector<int>& fixed_nodes);
+
+  // The node displacements at frame 0 (the motion model at the registered
+  // phase, zero without one): what ConstraintMapper needs.
+  Eigen::Matrix3Xd first_displacement_S_m() const;
+
+  // @pre frames increase. @throws dg::Error for a frame earlier than the last
+  // one, a target on a fixed node, or a simulation failure (inversion, blow-up).
+  FemFrameOutput Process(int frame, const NodeTargets& targets);
+
+  const std::vector<int>& sampled_nodes() const { return sampled_nodes_; }
+  const sim::StabilityReport& stability() const { return simulation_->stability(); }
+  const sim::CoupledSimulation<float>& simulation() const { return *simulation_; }
+
+ private:
+  Options options_;
+  Eigen::Matrix3Xd reference_S_m_;
+  std::unique_ptr<sim::CoupledSimulation<float>> simulation_;
+  std::vector<int> sampled_nodes_;
+  int last_frame_ = -1;
+};
+
+// The scan's motion model from an HDF5 file with /phases/node_displacement_m
+// [phase, node, xyz] (as `dynaguide phantom` writes scan.h5).
+// @throws dg::Error for a missing file or dataset, or a node count other than the mesh's.
+std::shared_ptr<const sim::CyclicMotionModel> LoadMotionModel(const std::string& scan_h5, int mesh_nodes,
+                                                              double period_s, double smoothing = 0.0);
+
+}  // namespace dg::stages
