@@ -4,9 +4,12 @@
 #include <cmath>
 
 #include <opencv2/features2d.hpp>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_invoke.h>
 #include <opencv2/imgproc.hpp>
 
 #include "sim/error.h"
+#include "stages/track/region_moments.h"
 
 namespace dg::stages {
 namespace {
@@ -69,6 +72,11 @@ FeatureDetector::FeatureDetector(const Options& options) : options_(options) {
 }
 
 std::vector<Feature> FeatureDetector::DetectCorners(const cv::Mat& image) const {
+  return DetectCorners(image, [](const cv::Point2f&) { return true; });
+}
+
+std::vector<Feature> FeatureDetector::DetectCorners(const cv::Mat& image,
+                                                    const std::function<bool(const cv::Point2f&)>& wanted) const {
   DG_CHECK(image.type() == CV_8UC1);
   cv::Mat response;
   cv::cornerMinEigenVal(image, response, options_.corner_block_size, 3);
@@ -85,7 +93,7 @@ std::vector<Feature> FeatureDetector::DetectCorners(const cv::Mat& image) const 
     const float* r = response.ptr<float>(y);
     const float* d = dilated.ptr<float>(y);
     for (int x = b; x < image.cols - b; ++x) {
-      if (r[x] > threshold && r[x] == d[x]) {
+      if (r[x] > threshold && r[x] == d[x] && wanted(cv::Point2f(static_cast<float>(x), static_cast<float>(y)))) {
         Feature f;
         f.uv_R_px = cv::Point2f(static_cast<float>(x), static_cast<float>(y));
         f.kind = FeatureKind::kCorner;
@@ -114,30 +122,39 @@ std::vector<Feature> FeatureDetector::DetectMser(const cv::Mat& image) const {
   std::vector<Feature> features;
   const float b = static_cast<float>(options_.border_px);
   for (const std::vector<cv::Point>& region : regions) {
-    // The region's moment ellipse: a uniform ellipse of semi-axis a has variance a^2/4 along it.
-    double sx = 0, sy = 0, sxx = 0, syy = 0, sxy = 0;
-    for (const cv::Point& p : region) {
-      sx += p.x, sy += p.y;
-      sxx += double(p.x) * p.x, syy += double(p.y) * p.y, sxy += double(p.x) * p.y;
-    }
-    const double n = static_cast<double>(region.size());
-    const double mx = sx / n, my = sy / n;
-    const double cxx = sxx / n - mx * mx, cyy = syy / n - my * my, cxy = sxy / n - mx * my;
-    const double half_trace = 0.5 * (cxx + cyy);
-    const double root = std::sqrt(0.25 * (cxx - cyy) * (cxx - cyy) + cxy * cxy);
-    const double major = half_trace + root, minor = half_trace - root;
-    if (minor <= 0 || major > minor * options_.mser_max_elongation * options_.mser_max_elongation) continue;
-    const cv::Point2f centre(static_cast<float>(mx), static_cast<float>(my));
+    RegionMoments moments;
+    for (const cv::Point& p : region) moments.Add(p.x, p.y);
+    if (!moments.Compact(options_.mser_max_elongation)) continue;
+    double major, minor, angle_deg;
+    moments.PrincipalAxes(&major, &minor, &angle_deg);
+    const cv::Point2f centre = moments.centroid();
     if (centre.x < b || centre.y < b || centre.x >= image.cols - b || centre.y >= image.rows - b) continue;
     Feature f;
     f.uv_R_px = centre;
     f.kind = FeatureKind::kMser;
-    const double angle_deg = 0.5 * std::atan2(2 * cxy, cxx - cyy) * 180 / CV_PI;
     f.ellipse = cv::RotatedRect(centre, cv::Size2f(float(4 * std::sqrt(major)), float(4 * std::sqrt(minor))),
                                 static_cast<float>(angle_deg));
     // Round regions localise equally well in both directions.
     f.score = static_cast<float>(std::sqrt(minor / major));
     features.push_back(f);
+  }
+  return features;
+}
+
+std::vector<Feature> FeatureDetector::DetectMserIn(const cv::Mat& image, const cv::Rect& bucket) const {
+  // The margin holds whole every region centred in the bucket that the
+  // filters keep (area and elongation bounded), and the border the matchers need.
+  const double longest_semi_axis =
+      std::sqrt(options_.mser_max_area_px * options_.mser_max_elongation / CV_PI);
+  const int margin = std::max(options_.border_px, static_cast<int>(std::ceil(longest_semi_axis)) + 1);
+  const cv::Rect tile = (bucket + cv::Size(2 * margin, 2 * margin) - cv::Point(margin, margin)) &
+                        cv::Rect(0, 0, image.cols, image.rows);
+  std::vector<Feature> features;
+  for (Feature f : DetectMser(image(tile))) {
+    f.uv_R_px += cv::Point2f(static_cast<float>(tile.x), static_cast<float>(tile.y));
+    f.ellipse.center = f.uv_R_px;
+    if (bucket.contains(cv::Point(static_cast<int>(f.uv_R_px.x), static_cast<int>(f.uv_R_px.y))))
+      features.push_back(f);
   }
   return features;
 }
@@ -157,11 +174,42 @@ std::vector<Feature> FeatureDetector::Detect(const cv::Mat& image, const std::ve
     ++filled[bucket_of(p)];
   }
 
+  std::vector<cv::Rect> needy;  // the buckets short of their share
+  for (int i = 0; i < buckets; ++i) {
+    if (filled[i] >= quota) continue;
+    const int col = i % options_.grid_cols, row = i / options_.grid_cols;
+    const cv::Point tl(col * image.cols / options_.grid_cols, row * image.rows / options_.grid_rows);
+    const cv::Point br((col + 1) * image.cols / options_.grid_cols, (row + 1) * image.rows / options_.grid_rows);
+    needy.emplace_back(tl, br);
+  }
+  if (needy.empty()) return {};
+  const auto in_needy = [&](const cv::Point2f& p) { return filled[bucket_of(p)] < quota; };
+
+  // Candidates only in the buckets short of their share, both kinds at once.
+  // Corners come from the whole image (cheap, and their quality threshold is
+  // relative to the image's strongest response); MSER, the expensive one,
+  // runs on the whole image only when most buckets are short (the first
+  // frame) and otherwise on a tile around each short bucket, tiles in parallel.
+  std::vector<std::vector<Feature>> kinds;
+  std::vector<Feature> corners, regions;
+  tbb::parallel_invoke(
+      [&] {
+        if (options_.corners) corners = DetectCorners(image, in_needy);
+      },
+      [&] {
+        if (!options_.mser) return;
+        if (2 * needy.size() > static_cast<size_t>(buckets)) {
+          regions = DetectMser(image);
+          return;
+        }
+        std::vector<std::vector<Feature>> per_tile(needy.size());
+        tbb::parallel_for(size_t{0}, needy.size(), [&](size_t t) { per_tile[t] = DetectMserIn(image, needy[t]); });
+        for (std::vector<Feature>& tile : per_tile) regions.insert(regions.end(), tile.begin(), tile.end());
+      });
+  if (options_.corners) kinds.push_back(std::move(corners));
+  if (options_.mser) kinds.push_back(std::move(regions));
   // Each enabled kind gets its share of every bucket, so that neither kind
   // crowds out the other where both are plentiful.
-  std::vector<std::vector<Feature>> kinds;
-  if (options_.corners) kinds.push_back(DetectCorners(image));
-  if (options_.mser) kinds.push_back(DetectMser(image));
   std::vector<Feature> selected;
   for (size_t k = 0; k < kinds.size(); ++k) {
     std::vector<Feature>& candidates = kinds[k];

@@ -1,5 +1,6 @@
 #pragma once
 
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -12,7 +13,8 @@ namespace dg::stages {
 // Finds trackable features in a rectified grey image: Shi-Tomasi corners and
 // MSER region centroids, spread over the image by a grid of buckets so that
 // the surface is sampled everywhere rather than only where texture is strongest.
-// Stateless; Detect() is const and may run on several images at once.
+// Stateless; Detect() is const and may run on several images at once; it
+// uses TBB inside (the two kinds, and the tiles, at once).
 class FeatureDetector {
  public:
   struct Options {
@@ -36,7 +38,9 @@ class FeatureDetector {
   // Features of `image` (CV_8UC1) that keep min_distance_px from each other and
   // from `existing`, filling each bucket up to its share of target_count
   // (existing points count against their bucket), best response first; the
-  // shares of buckets with too few candidates then go to the others.
+  // shares of buckets with too few candidates then go to the others. Only the
+  // buckets short of their share are searched, so a frame that lost a few
+  // tracks pays for a few tiles, not for the whole image.
   std::vector<Feature> Detect(const cv::Mat& image, const std::vector<cv::Point2f>& existing = {}) const;
 
   // The candidates of one kind before bucketing (for tests and tuning).
@@ -46,6 +50,12 @@ class FeatureDetector {
   const Options& options() const { return options_; }
 
  private:
+  // Corners at local maxima where `wanted` holds (sub-pixel refinement is the costly part).
+  std::vector<Feature> DetectCorners(const cv::Mat& image,
+                                     const std::function<bool(const cv::Point2f&)>& wanted) const;
+  // MSER features centred in `bucket`, found in a tile around it.
+  std::vector<Feature> DetectMserIn(const cv::Mat& image, const cv::Rect& bucket) const;
+
   Options options_;
 };
 

@@ -12,6 +12,8 @@ std::string TemporalTracker::Options::Validate() const {
   if (max_iterations <= 0) return "max_iterations must be positive";
   if (epsilon_px <= 0) return "epsilon_px must be positive";
   if (forward_backward_px <= 0) return "forward_backward_px must be positive";
+  if (backward_pyramid_levels < 0 || backward_pyramid_levels > pyramid_levels)
+    return "backward_pyramid_levels must lie in [0, pyramid_levels]";
   return {};
 }
 
@@ -49,8 +51,8 @@ void TemporalTracker::Track(const Pyramid& previous, const Pyramid& next, const 
                            criteria, flags);
   // Back from where each point went, starting at its origin: a correct track returns there.
   std::vector<cv::Point2f> back = points;
-  cv::calcOpticalFlowPyrLK(next, previous, *moved, back, backward_ok, errors, window, options_.pyramid_levels,
-                           criteria, cv::OPTFLOW_USE_INITIAL_FLOW);
+  cv::calcOpticalFlowPyrLK(next, previous, *moved, back, backward_ok, errors, window,
+                           options_.backward_pyramid_levels, criteria, cv::OPTFLOW_USE_INITIAL_FLOW);
   const double limit2 = options_.forward_backward_px * options_.forward_backward_px;
   const cv::Size size = next.front().size();
   for (size_t i = 0; i < points.size(); ++i) {

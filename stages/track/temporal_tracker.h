@@ -14,12 +14,18 @@ namespace dg::stages {
 class TemporalTracker {
  public:
   struct Options {
-    int window_px = 21;
-    int pyramid_levels = 3;
+    // A 15 px window on 3 levels (0..2) follows motion of up to about 28 px
+    // per frame, several times the phantom's largest; it costs half of a
+    // 21 px window on 4 levels.
+    int window_px = 15;
+    int pyramid_levels = 2;
     int max_iterations = 30;
     double epsilon_px = 0.01;
     double forward_backward_px = 0.5;  // largest round-trip error kept
-    std::string Validate() const;      // empty when valid
+    // Levels of the backward pass, which starts where a correct track returns
+    // (the point's origin), so it needs no coarse levels to find a large motion.
+    int backward_pyramid_levels = 0;
+    std::string Validate() const;  // empty when valid
   };
 
   // An image's pyramid, built once and used as "next" for one frame and "previous" for the following one.
