@@ -372,6 +372,7 @@ std::vector<T> H5Reader::Read(const std::string& dataset, H5Shape* shape) const 
 
 template std::vector<double> H5Reader::Read(const std::string&, H5Shape*) const;
 template std::vector<float> H5Reader::Read(const std::string&, H5Shape*) const;
+template std::vector<std::int64_t> H5Reader::Read(const std::string&, H5Shape*) const;
 template std::vector<std::int32_t> H5Reader::Read(const std::string&, H5Shape*) const;
 template std::vector<std::uint8_t> H5Reader::Read(const std::string&, H5Shape*) const;
 

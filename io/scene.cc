@@ -79,6 +79,34 @@ Scene::Overlays ReadOverlays(const YamlMap& map, const fs::path& directory) {
   return overlays;
 }
 
+Scene::Video::Layout ReadLayout(const YamlMap& map) {
+  const std::string name = map.String("layout", "two_files");
+  if (name == "two_files") return Scene::Video::Layout::kTwoFiles;
+  if (name == "side_by_side") return Scene::Video::Layout::kSideBySide;
+  if (name == "image_sequences") return Scene::Video::Layout::kImageSequences;
+  throw Error("unknown video layout '" + name + "'", map.Where("layout"),
+              "use two_files, side_by_side (left eye in the left half) or image_sequences");
+}
+
+Scene::Video ReadVideo(const YamlMap& map, const fs::path& directory) {
+  Scene::Video video;
+  video.layout = ReadLayout(map);
+  if (video.layout == Scene::Video::Layout::kImageSequences) {
+    // Patterns name no single file: the capture stage says when nothing matches.
+    video.left = (directory / map.String("left")).string();
+    video.right = (directory / map.String("right")).string();
+  } else {
+    video.left = File(map, "left", directory);
+    if (video.layout == Scene::Video::Layout::kTwoFiles) video.right = File(map, "right", directory);
+  }
+  video.fps = map.Number("fps");
+  video.frames = map.Integer("frames", 0);
+  video.rectified = map.Boolean("rectified", false);
+  if (!(video.fps > 0)) throw Error("'fps' must be positive", map.Where("fps"), "give the video's frame rate");
+  map.RejectUnknown();
+  return video;
+}
+
 }  // namespace
 
 Scene ReadScene(const std::string& path) {
@@ -107,13 +135,7 @@ Scene ReadScene(const std::string& path) {
   scene.calibration = File(top, "calibration", directory);
   if (top.Has("calibration_images")) scene.calibration_images = (directory / top.String("calibration_images")).string();
 
-  const YamlMap video = top.Map("video");
-  scene.video.left = File(video, "left", directory);
-  scene.video.right = File(video, "right", directory);
-  scene.video.fps = video.Number("fps");
-  scene.video.frames = video.Integer("frames", 0);
-  if (!(scene.video.fps > 0)) throw Error("'fps' must be positive", video.Where("fps"), "give the video's frame rate");
-  video.RejectUnknown();
+  scene.video = ReadVideo(top.Map("video"), directory);
 
   if (top.Has("truth")) scene.truth = File(top, "truth", directory);
   top.RejectUnknown();

@@ -46,9 +46,12 @@ struct Scene {
   std::string calibration_images;  // printf pattern with %s (left/right) and %d, optional
 
   struct Video {
-    std::string left, right;
+    enum class Layout { kTwoFiles, kSideBySide, kImageSequences };
+    Layout layout = Layout::kTwoFiles;
+    std::string left, right;  // files, or printf patterns/globs of image sequences; right empty side by side
     double fps = 0;
     int frames = 0;
+    bool rectified = false;  // the recording is already rectified: the graph has no rectify stage
   } video;
 
   std::string truth;  // optional: ground truth HDF5

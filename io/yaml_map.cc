@@ -50,6 +50,9 @@ double YamlMap::Number(const std::string& key, double default_value) const {
 int YamlMap::Integer(const std::string& key, int default_value) const {
   return Has(key) ? Convert<int>(key, "an integer") : default_value;
 }
+bool YamlMap::Boolean(const std::string& key, bool default_value) const {
+  return Has(key) ? Convert<bool>(key, "true or false") : default_value;
+}
 std::string YamlMap::String(const std::string& key) const { return Convert<std::string>(key, "a string"); }
 std::string YamlMap::String(const std::string& key, const std::string& default_value) const {
   return Has(key) ? String(key) : default_value;

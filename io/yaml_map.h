@@ -23,6 +23,7 @@ class YamlMap {
   double Number(const std::string& key) const;
   double Number(const std::string& key, double default_value) const;
   int Integer(const std::string& key, int default_value) const;
+  bool Boolean(const std::string& key, bool default_value) const;
   std::string String(const std::string& key) const;
   std::string String(const std::string& key, const std::string& default_value) const;
   Eigen::Vector3d Vector3(const std::string& key) const;

@@ -95,4 +95,38 @@ TEST_CASE("scene: bad scenes give named errors", "[io][unit]") {
   REQUIRE_THROWS_WITH(ReadScene((dir / "scene.yaml").string()), Catch::Contains("one integer field"));
 }
 
+
+// The recording's layout: side by side needs no right file; image sequences
+// are patterns, not files; a misspelt layout is named with the choices.
+TEST_CASE("scene: video layouts", "[io][unit]") {
+  std::string text = kScene;
+  text.replace(text.find("  right: video/right.avi\n"), 25, "  layout: side_by_side\n  rectified: true\n");
+  fs::path dir = MakeSceneDir("dg_scene_test_layout", text);
+  Scene scene = ReadScene((dir / "scene.yaml").string());
+  REQUIRE(scene.video.layout == Scene::Video::Layout::kSideBySide);
+  REQUIRE(scene.video.right.empty());
+  REQUIRE(scene.video.rectified);
+
+  text = kScene;
+  text.replace(text.find("  left: video/left.avi\n  right: video/right.avi\n"), 48,
+               "  layout: image_sequences\n  left: frames/left_%04d.png\n  right: frames/right_*.png\n");
+  dir = MakeSceneDir("dg_scene_test_layout", text);
+  scene = ReadScene((dir / "scene.yaml").string());
+  REQUIRE(scene.video.layout == Scene::Video::Layout::kImageSequences);
+  REQUIRE(scene.video.left == (dir / "frames/left_%04d.png").string());
+  REQUIRE_FALSE(scene.video.rectified);
+
+  text = kScene;
+  text.replace(text.find("  fps: 30"), 9, "  fps: 30\n  layout: stacked");
+  dir = MakeSceneDir("dg_scene_test_layout", text);
+  REQUIRE_THROWS_WITH(ReadScene((dir / "scene.yaml").string()),
+                      Catch::Contains("unknown video layout 'stacked'") && Catch::Contains("video.layout") &&
+                          Catch::Contains("side_by_side"));
+
+  text = kScene;
+  text.replace(text.find("  fps: 30"), 9, "  fps: 30\n  rectified: maybe");
+  dir = MakeSceneDir("dg_scene_test_layout", text);
+  REQUIRE_THROWS_WITH(ReadScene((dir / "scene.yaml").string()), Catch::Contains("'rectified' must be true or false"));
+}
+
 }  // namespace dg::io
