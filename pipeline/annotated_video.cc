@@ -1,0 +1,96 @@
+#include "pipeline/annotated_video.h"
+
+#include <chrono>
+#include <cstdio>
+
+#include <opencv2/imgproc.hpp>
+
+#include "sim/error.h"
+#include "sim/log.h"
+
+namespace dg::pipeline {
+namespace {
+
+void DrawTracks(const FramePacket& packet, cv::Mat& canvas) {
+  const cv::Scalar corner(60, 220, 60), mser(0, 160, 255);  // BGR
+  for (const stages::TrackedPoint& p : packet.tracks.points) {
+    const cv::Point2d at(p.uv_left_px.x(), p.uv_left_px.y());
+    // Sub-pixel positions: 2 fractional bits, so a circle sits where the point is.
+    cv::circle(canvas, at * 4, 3 * 4, p.kind == stages::FeatureKind::kMser ? mser : corner, 1, cv::LINE_AA, 2);
+  }
+  char label[128];
+  std::snprintf(label, sizeof label, "frame %lld  t %.3f s  %zu tracks", static_cast<long long>(packet.index),
+                packet.t_s, packet.tracks.points.size());
+  cv::putText(canvas, label, {8, 20}, cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(0, 0, 0), 3, cv::LINE_AA);
+  cv::putText(canvas, label, {8, 20}, cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(255, 255, 255), 1, cv::LINE_AA);
+}
+
+}  // namespace
+
+AnnotatedVideo::AnnotatedVideo(const std::string& path, double fps, cv::Size size, Policy policy, int ring_frames)
+    : path_(path),
+      policy_(policy),
+      writer_(path, cv::CAP_OPENCV_MJPEG, cv::VideoWriter::fourcc('M', 'J', 'P', 'G'), fps, size),
+      ring_(ring_frames) {
+  if (!writer_.isOpened()) {
+    throw Error("cannot open the annotated video for writing", path, "check the directory exists and is writable");
+  }
+  writer_.set(cv::VIDEOWRITER_PROP_QUALITY, 90);
+  encoder_ = std::thread([this] { Encode(); });
+}
+
+AnnotatedVideo::~AnnotatedVideo() {
+  try {
+    Close();
+  } catch (const std::exception& e) {
+    Logger("pipeline").error("{}", e.what());
+  }
+}
+
+void AnnotatedVideo::Add(const FramePacket& packet) {
+  packet.raw.left.copyTo(canvas_);
+  DrawTracks(packet, canvas_);
+  if (policy_ == Policy::kRealtime) {
+    ring_.PushOrDrop(canvas_);
+  } else {
+    while (!ring_.TryPush(canvas_)) {
+      if (closing_.load()) throw Error("the annotated video was closed while frames were still coming", path_,
+                                       "close it after the graph has finished");
+      wake_.notify_one();
+      std::this_thread::sleep_for(std::chrono::microseconds(200));
+    }
+  }
+  wake_.notify_one();
+}
+
+void AnnotatedVideo::Encode() {
+  cv::Mat frame;
+  for (;;) {
+    while (ring_.TryPop(frame)) {
+      writer_.write(frame);
+      ++written_;
+    }
+    if (closing_.load()) {
+      while (ring_.TryPop(frame)) {  // what arrived between the last pop and the close
+        writer_.write(frame);
+        ++written_;
+      }
+      return;
+    }
+    std::unique_lock lock(wake_mutex_);
+    wake_.wait_for(lock, std::chrono::milliseconds(5));
+  }
+}
+
+void AnnotatedVideo::Close() {
+  if (!encoder_.joinable()) return;
+  closing_ = true;
+  wake_.notify_one();
+  encoder_.join();
+  writer_.release();
+  if (dropped() > 0) {
+    Logger("pipeline").warn("{}: {} frames dropped because the encoder fell behind", path_, dropped());
+  }
+}
+
+}  // namespace dg::pipeline

@@ -1,0 +1,57 @@
+#pragma once
+
+#include <atomic>
+#include <condition_variable>
+#include <mutex>
+#include <string>
+#include <thread>
+
+#include <opencv2/core.hpp>
+#include <opencv2/videoio.hpp>
+
+#include "pipeline/frame_packet.h"
+#include "pipeline/spsc_ring.h"
+#include "pipeline/stage_graph.h"
+
+namespace dg::pipeline {
+
+// The video a person watches after a run: the left frame as recorded, with
+// the tracked features drawn (corners green, MSER regions orange) and the
+// frame's number, time and track count. Drawing happens in the caller (the
+// graph's sink); encoding on a thread of its own, fed through a bounded
+// single-producer/single-consumer ring, so a slow encoder never holds the
+// graph: under the realtime policy a frame that finds the ring full is
+// dropped and counted; offline the sink waits, so the video is complete.
+// MJPEG in AVI: every player and OpenCV opens it.
+class AnnotatedVideo {
+ public:
+  // @throws dg::Error when the file cannot be opened for writing.
+  AnnotatedVideo(const std::string& path, double fps, cv::Size size, Policy policy, int ring_frames = 8);
+  ~AnnotatedVideo();  // Close()s, logging instead of throwing
+  AnnotatedVideo(const AnnotatedVideo&) = delete;
+  AnnotatedVideo& operator=(const AnnotatedVideo&) = delete;
+
+  // Draws the packet's frame and hands it to the encoder.
+  void Add(const FramePacket& packet);
+  // Encodes what is queued and closes the file. @throws dg::Error when encoding failed.
+  void Close();
+
+  std::size_t dropped() const { return ring_.dropped(); }
+  std::int64_t written() const { return written_.load(); }
+
+ private:
+  void Encode();
+
+  std::string path_;
+  Policy policy_;
+  cv::VideoWriter writer_;
+  SpscRing<cv::Mat> ring_;
+  cv::Mat canvas_;  // the producer's frame being drawn; swapped into the ring
+  std::atomic<bool> closing_{false};
+  std::atomic<std::int64_t> written_{0};
+  std::mutex wake_mutex_;
+  std::condition_variable wake_;
+  std::thread encoder_;
+};
+
+}  // namespace dg::pipeline

@@ -1,0 +1,53 @@
+#pragma once
+
+#include <array>
+#include <cstdint>
+
+#include <opencv2/core.hpp>
+
+#include "stages/rectify.h"
+#include "stages/stereo_frame.h"
+#include "stages/track/feature_tracker.h"
+
+namespace dg::pipeline {
+
+// When one stage worked on one frame: a row of the run log's /timings.
+// Times are nanoseconds since the run started (steady clock); thread is TBB's
+// index of the worker in the run's arena.
+struct StageTiming {
+  std::int64_t frame = 0;
+  std::int32_t stage = 0;  // index into the graph's stage names
+  std::int32_t thread = 0;
+  std::int64_t start_ns = 0, end_ns = 0;
+};
+
+// One frame in flight: the value every stage reads its input from and writes
+// its output into (DESIGN.md section 4). A run owns a fixed pool of packets,
+// and a packet is a token of the graph's in-flight limit: the source fills a
+// free one, the sink hands it back. Images are reused from frame to frame, so
+// once every buffer has its size the steady state allocates no image memory.
+struct FramePacket {
+  static constexpr int kMaxStages = 16;
+
+  std::int64_t sequence = 0;  // 0, 1, 2, ... in the order the source filled packets (gap-free)
+  std::int64_t index = 0;     // the video frame (gaps where frames were dropped)
+  double t_s = 0;             // the frame's time in the recording
+  std::int64_t captured_ns = 0;  // when the source started on it (run clock), for latency
+  int dropped_before = 0;        // frames the realtime policy dropped just before this one
+
+  stages::StereoFrame raw;          // as captured, BGR
+  cv::Mat left_grey, right_grey;    // the tracker's input before rectification
+  stages::RectifiedPair rectified;  // grey, rectified (or the grey input when it comes rectified)
+  stages::TrackFrame tracks;
+
+  std::array<StageTiming, kMaxStages> timings;
+  int timing_count = 0;
+
+  void ResetFor(std::int64_t next_sequence) {
+    sequence = next_sequence;
+    dropped_before = 0;
+    timing_count = 0;
+  }
+};
+
+}  // namespace dg::pipeline

@@ -1,0 +1,365 @@
+#include "pipeline/stage_graph.h"
+
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <exception>
+#include <mutex>
+#include <sstream>
+#include <thread>
+#include <tuple>
+
+#include <oneapi/tbb/flow_graph.h>
+#include <oneapi/tbb/task_arena.h>
+
+#include "sim/log.h"
+#include "sim/error.h"
+
+namespace dg::pipeline {
+
+namespace flow = tbb::flow;
+
+Policy ParsePolicy(const std::string& name) {
+  if (name == "offline") return Policy::kOffline;
+  if (name == "realtime") return Policy::kRealtime;
+  throw Error("unknown policy '" + name + "'", "--policy", "use offline (lossless) or realtime (paced, drops frames)");
+}
+
+const char* PolicyName(Policy policy) { return policy == Policy::kOffline ? "offline" : "realtime"; }
+
+std::string GraphOptions::Validate() const {
+  if (max_in_flight < 1) return "at least one frame must be allowed in flight";
+  if (first_frame < 0) return "the first frame must not be negative";
+  if (end_frame >= 0 && end_frame <= first_frame) return "the frame range is empty";
+  return {};
+}
+
+StageGraph::StageGraph(std::unique_ptr<PacketSource> source, std::vector<std::unique_ptr<PacketStage>> stages,
+                       const GraphOptions& options)
+    : source_(std::move(source)), stages_(std::move(stages)), options_(options) {
+  if (const std::string wrong = options_.Validate(); !wrong.empty()) {
+    throw Error("invalid graph options: " + wrong, "pipeline", "check --frames");
+  }
+  if (!source_) throw Error("the graph has no source", "pipeline", "give a capture stage");
+  if (stages_.size() + 2 > static_cast<size_t>(FramePacket::kMaxStages)) {
+    throw Error("the graph has " + std::to_string(stages_.size()) + " stages; a packet times at most " +
+                    std::to_string(FramePacket::kMaxStages - 2),
+                "pipeline", "raise FramePacket::kMaxStages");
+  }
+  Plan();
+}
+
+StageGraph::~StageGraph() = default;
+
+void StageGraph::Plan() {
+  stage_names_ = {source_->name()};
+  for (const auto& stage : stages_) stage_names_.push_back(stage->name());
+  stage_names_.push_back("sink");
+
+  auto add = [this](std::string name, std::string kind) {
+    nodes_.push_back({std::move(name), std::move(kind)});
+    return static_cast<int>(nodes_.size()) - 1;
+  };
+  const int free_packets = add("free_packets", "buffer");
+  const int ticker = add("ticker", "ticker");
+  const int join = add("limiter", "join");
+  edges_ = {{free_packets, join}, {ticker, join}};
+  int previous = add(source_->name(), "source");
+  edges_.push_back({join, previous});
+  edges_.push_back({previous, free_packets});  // a packet the source could not fill goes straight back
+
+  // Frames leave the source in order; a stateless (unlimited) stage may
+  // reorder them, so a sequencer goes before the next stateful stage or sink.
+  bool reordered = false;
+  auto chain = [&](int node) {
+    edges_.push_back({previous, node});
+    previous = node;
+  };
+  for (const auto& stage : stages_) {
+    const bool sequence = stage->stateful() && reordered;
+    sequenced_before_.push_back(sequence);
+    if (sequence) chain(add("order_before_" + stage->name(), "sequencer"));
+    chain(add(stage->name(), stage->stateful() ? "stateful" : "stateless"));
+    reordered = sequence ? false : reordered || !stage->stateful();
+  }
+  sequenced_before_.push_back(reordered);
+  if (reordered) chain(add("order_before_sink", "sequencer"));
+  chain(add("sink", "sink"));
+  edges_.push_back({previous, free_packets});
+}
+
+std::string StageGraph::Describe() const {
+  std::ostringstream text;
+  text << "nodes:\n";
+  for (const Node& node : nodes_) text << "  " << node.name << " (" << node.kind << ")\n";
+  text << "edges:\n";
+  for (const Edge& edge : edges_) text << "  " << nodes_[edge.from].name << " -> " << nodes_[edge.to].name << "\n";
+  return text.str();
+}
+
+// The flow graph of one run: built from the plan, run once, torn down.
+class StageGraph::Runner {
+ public:
+  Runner(StageGraph& plan, GraphSink& sink)
+      : plan_(plan),
+        sink_(sink),
+        packets_(plan.options_.max_in_flight),
+        free_(graph_),
+        ticker_(graph_, [this](tbb::flow_control& control) { return NextTick(control); }),
+        join_(graph_),
+        source_node_(graph_, flow::serial, [this](const std::tuple<Packet, Tick>& in, SourceNode::output_ports_type& out) {
+          Packet packet = std::get<0>(in);
+          if (Capture(*packet)) {
+            std::get<0>(out).try_put(packet);
+          } else {
+            std::get<1>(out).try_put(packet);
+          }
+        }) {
+    flow::make_edge(free_, flow::input_port<0>(join_));
+    flow::make_edge(ticker_, flow::input_port<1>(join_));
+    flow::make_edge(join_, source_node_);
+    flow::make_edge(flow::output_port<1>(source_node_), free_);
+
+    flow::sender<Packet>* previous = &flow::output_port<0>(source_node_);
+    auto chain = [&](auto& node) {
+      flow::make_edge(*previous, node);
+      previous = &node;
+    };
+    for (size_t i = 0; i < plan_.stages_.size(); ++i) {
+      if (plan_.sequenced_before_[i]) chain(AddSequencer());
+      PacketStage& stage = *plan_.stages_[i];
+      const int index = static_cast<int>(i) + 1;
+      stage_nodes_.push_back(std::make_unique<StageNode>(
+          graph_, stage.stateful() ? flow::serial : flow::unlimited, [this, &stage, index](Packet packet) {
+            Timed(*packet, index, [&] { stage.Process(*packet); });
+            return packet;
+          }));
+      chain(*stage_nodes_.back());
+    }
+    if (plan_.sequenced_before_.back()) chain(AddSequencer());
+    const int sink_index = static_cast<int>(plan_.stage_names_.size()) - 1;
+    sink_node_ = std::make_unique<StageNode>(graph_, flow::serial, [this, sink_index](Packet packet) {
+      Consume(*packet, sink_index);
+      return packet;
+    });
+    chain(*sink_node_);
+    flow::make_edge(*sink_node_, free_);
+  }
+
+  GraphRunResult Run() {
+    start_ = std::chrono::steady_clock::now();
+    if (SkipToFirstFrame()) {
+      for (FramePacket& packet : packets_) free_.try_put(&packet);
+      ticker_.activate();
+      graph_.wait_for_all();
+    }
+    return Finish();
+  }
+
+  // The same stage calls, timings and sink, one frame after another on the
+  // calling thread without the flow graph: the reference the graph's overhead
+  // is measured against.
+  GraphRunResult RunInline() {
+    start_ = std::chrono::steady_clock::now();
+    if (SkipToFirstFrame()) {
+      FramePacket& packet = packets_.front();
+      const int sink_index = static_cast<int>(plan_.stage_names_.size()) - 1;
+      while (!Failed() && Capture(packet)) {
+        for (size_t i = 0; i < plan_.stages_.size(); ++i) {
+          Timed(packet, static_cast<int>(i) + 1, [&] { plan_.stages_[i]->Process(packet); });
+        }
+        Consume(packet, sink_index);
+      }
+    }
+    return Finish();
+  }
+
+ private:
+  GraphRunResult Finish() {
+    result_.complete = !Failed();
+    result_.frames_dropped += trailing_drops_;
+    for (std::int64_t k = 0; k < trailing_drops_; ++k) {
+      sink_.RecordDrop(position_ - trailing_drops_ + k, NowNs());
+    }
+    result_.wall_s = NowNs() * 1e-9;
+    return std::move(result_);
+  }
+
+  using Packet = FramePacket*;
+  using Tick = std::int64_t;
+  using SourceNode = flow::multifunction_node<std::tuple<Packet, Tick>, std::tuple<Packet, Packet>>;
+  using StageNode = flow::function_node<Packet, Packet>;
+  using Sequencer = flow::sequencer_node<Packet>;
+
+  std::int64_t NowNs() const {
+    return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now() - start_).count();
+  }
+
+  Sequencer& AddSequencer() {
+    sequencers_.push_back(std::make_unique<Sequencer>(graph_, [](const Packet& packet) {
+      return static_cast<size_t>(packet->sequence);
+    }));
+    return *sequencers_.back();
+  }
+
+  bool SkipToFirstFrame() {
+    for (; position_ < plan_.options_.first_frame; ++position_) {
+      if (!plan_.source_->Skip()) {
+        Fail("the recording has only " + std::to_string(position_) + " frames; the range starts at frame " +
+                 std::to_string(plan_.options_.first_frame),
+             0);
+        return false;
+      }
+    }
+    return true;
+  }
+
+  Tick NextTick(tbb::flow_control& control) {
+    if (source_ended_.load() || Failed()) control.stop();
+    return ticks_++;
+  }
+
+  bool Failed() const { return failed_sequence_.load() != kNone; }
+  // Whether a packet comes after a failure: it is passed on untouched, so the
+  // graph drains, and the frames before the failure all reach the sink.
+  bool AfterFailure(const FramePacket& packet) const { return packet.sequence >= failed_sequence_.load(); }
+
+  bool AtEnd() const { return plan_.options_.end_frame >= 0 && position_ >= plan_.options_.end_frame; }
+
+  // Realtime: the frame the camera shows now, counted from the first frame
+  // of the range at the start of the run; frames older than it are dropped,
+  // and a frame not yet due is waited for.
+  int PaceToVideoClock() {
+    if (video_clock_start_ns_ < 0) video_clock_start_ns_ = NowNs();  // the first frame is live now
+    const double fps = plan_.source_->fps();
+    const std::int64_t first = plan_.options_.first_frame;
+    const double video_s = (NowNs() - video_clock_start_ns_) * 1e-9;
+    const std::int64_t live = first + static_cast<std::int64_t>(std::floor(video_s * fps));
+    int dropped = 0;
+    while (position_ < live && !AtEnd() && plan_.source_->Skip()) {
+      ++position_;
+      ++dropped;
+    }
+    const double due_s = (position_ - first) / fps;
+    const double wait_s = due_s - (NowNs() - video_clock_start_ns_) * 1e-9;
+    if (wait_s > 0) std::this_thread::sleep_for(std::chrono::duration<double>(wait_s));
+    return dropped;
+  }
+
+  // The source stage: fills the packet with the next frame; false at the end.
+  bool Capture(FramePacket& packet) {
+    if (source_ended_.load() || Failed()) return false;
+    const std::int64_t start = NowNs();
+    const int dropped = plan_.options_.policy == Policy::kRealtime ? PaceToVideoClock() : 0;
+    bool read = false;
+    packet.ResetFor(next_sequence_);
+    Guard(plan_.source_->name(), packet, position_, [&] { read = !AtEnd() && plan_.source_->Read(packet); });
+    if (!read) {
+      trailing_drops_ += dropped;
+      source_ended_ = true;
+      return false;
+    }
+    ++position_;
+    ++next_sequence_;
+    packet.dropped_before = dropped;
+    packet.captured_ns = start;
+    Record(packet, 0, start);
+    return true;
+  }
+
+  void Consume(FramePacket& packet, int sink_index) {
+    if (AfterFailure(packet)) return;
+    const std::int64_t start = NowNs();
+    Guard("sink", packet, packet.index, [&] {
+      for (int k = packet.dropped_before; k > 0; --k) sink_.RecordDrop(packet.index - k, packet.captured_ns);
+      sink_.Consume(packet);
+    });
+    Record(packet, sink_index, start);
+    if (AfterFailure(packet)) return;
+    Guard("sink", packet, packet.index,
+          [&] { sink_.RecordTimings({packet.timings.data(), size_t(packet.timing_count)}); });
+    ++result_.frames_done;
+    result_.frames_dropped += packet.dropped_before;
+  }
+
+  template <typename Work>
+  void Timed(FramePacket& packet, int stage_index, Work&& work) {
+    if (AfterFailure(packet)) return;
+    const std::int64_t start = NowNs();
+    Guard(plan_.stage_names_[stage_index], packet, packet.index, work);
+    Record(packet, stage_index, start);
+  }
+
+  void Record(FramePacket& packet, int stage_index, std::int64_t start) {
+    packet.timings[packet.timing_count++] = {packet.index, stage_index,
+                                             tbb::this_task_arena::current_thread_index(), start, NowNs()};
+  }
+
+  // Runs one stage's work on a packet; an exception stops the graph, naming stage and frame.
+  template <typename Work>
+  void Guard(const std::string& stage, const FramePacket& packet, std::int64_t frame, Work&& work) {
+    try {
+      work();
+    } catch (const std::exception& e) {
+      Fail("stage '" + stage + "' failed at frame " + std::to_string(frame) + ": " + e.what(), packet.sequence);
+    } catch (...) {
+      Fail("stage '" + stage + "' failed at frame " + std::to_string(frame) + " with an unknown exception",
+           packet.sequence);
+    }
+  }
+
+  // Stops the graph at the packet of this sequence: the source reads no more,
+  // and it and later packets drain through untouched. (Cancelling the graph's
+  // task group instead would also stop the frames before the failure that are
+  // still queued, and their results would be lost.)
+  void Fail(const std::string& message, std::int64_t sequence) {
+    std::lock_guard lock(error_mutex_);
+    if (sequence >= failed_sequence_.load()) return;  // a consequence of an earlier frame's failure
+    failed_sequence_ = sequence;
+    result_.error = message;
+    Logger("pipeline").error("{}", message);
+  }
+
+  StageGraph& plan_;
+  GraphSink& sink_;
+  std::vector<FramePacket> packets_;
+  std::chrono::steady_clock::time_point start_;
+
+  // Written by the serial source only.
+  std::int64_t position_ = 0;  // frames taken from the source, read or skipped
+  std::int64_t next_sequence_ = 0;
+  std::int64_t trailing_drops_ = 0;
+  std::int64_t video_clock_start_ns_ = -1;  // realtime: when the first frame was live
+  Tick ticks_ = 0;  // written by the ticker only
+
+  static constexpr std::int64_t kNone = INT64_MAX;
+  std::atomic<bool> source_ended_{false};
+  std::atomic<std::int64_t> failed_sequence_{kNone};  // the first failed packet's
+  std::mutex error_mutex_;
+  GraphRunResult result_;  // counts written by the serial sink; error under error_mutex_
+
+  flow::graph graph_;
+  flow::buffer_node<Packet> free_;
+  flow::input_node<Tick> ticker_;
+  flow::join_node<std::tuple<Packet, Tick>, flow::reserving> join_;
+  SourceNode source_node_;
+  std::vector<std::unique_ptr<Sequencer>> sequencers_;
+  std::vector<std::unique_ptr<StageNode>> stage_nodes_;
+  std::unique_ptr<StageNode> sink_node_;
+};
+
+GraphRunResult StageGraph::Run(GraphSink& sink) {
+  if (ran_) throw Error("a graph runs once", "pipeline", "build a new graph for another run");
+  ran_ = true;
+  Runner runner(*this, sink);
+  return runner.Run();
+}
+
+GraphRunResult StageGraph::RunInline(GraphSink& sink) {
+  if (ran_) throw Error("a graph runs once", "pipeline", "build a new graph for another run");
+  ran_ = true;
+  Runner runner(*this, sink);
+  return runner.RunInline();
+}
+
+}  // namespace dg::pipeline

@@ -1,0 +1,111 @@
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "pipeline/packet_stage.h"
+
+namespace dg::pipeline {
+
+enum class Policy {
+  kOffline,   // lossless: every frame of the range is processed, as fast as possible
+  kRealtime,  // paced to the video clock; frames are dropped at capture when the graph falls behind
+};
+
+// "offline" or "realtime". @throws dg::Error for another name.
+Policy ParsePolicy(const std::string& name);
+const char* PolicyName(Policy policy);
+
+struct GraphOptions {
+  Policy policy = Policy::kOffline;
+  // Packets in flight (the limiter's tokens): enough to keep two cores busy
+  // with a serial and a parallel stage overlapped, few enough to bound memory and latency.
+  int max_in_flight = 3;
+  std::int64_t first_frame = 0;  // frames before it are skipped
+  std::int64_t end_frame = -1;   // one past the last frame; -1: to the end of the recording
+
+  std::string Validate() const;  // empty when valid
+};
+
+// Where the graph's results go: called on one thread at a time, packets in
+// order of their sequence, drops in order of frame.
+class GraphSink {
+ public:
+  virtual ~GraphSink() = default;
+  virtual void Consume(const FramePacket& packet) = 0;
+  // The packet's stage timings, the sink's own last, after Consume returned.
+  virtual void RecordTimings(std::span<const StageTiming> timings) = 0;
+  // A frame the realtime policy dropped at capture; at_ns on the run clock.
+  virtual void RecordDrop(std::int64_t frame, std::int64_t at_ns) = 0;
+};
+
+// How a run ended.
+struct GraphRunResult {
+  std::int64_t frames_done = 0;
+  std::int64_t frames_dropped = 0;
+  double wall_s = 0;
+  bool complete = false;
+  std::string error;  // when not complete: which stage failed at which frame, and why
+};
+
+// The TBB flow graph of a run (DESIGN.md section 4):
+//
+//   ticker -> join(free packet, tick) -> source -> stages... -> sink -> free packets
+//
+// A packet is a token: the reserving join lets the source start a frame only
+// when a packet is free, so at most max_in_flight frames are in the graph.
+// Stateless stages run with unlimited concurrency; a sequencer restores the
+// order before any stateful stage and before the sink. A stage that throws
+// stops the graph: the source reads no more, the frames before the failing
+// one complete and reach the sink, later ones drain through untouched, and
+// the run result names the stage and the frame. Nothing aborts.
+class StageGraph {
+ public:
+  // @throws dg::Error for invalid options, no source or more stages than a packet can time.
+  StageGraph(std::unique_ptr<PacketSource> source, std::vector<std::unique_ptr<PacketStage>> stages,
+             const GraphOptions& options);
+  ~StageGraph();
+
+  // The names a timing's stage index refers to: the source, the stages, "sink".
+  const std::vector<std::string>& stage_names() const { return stage_names_; }
+
+  struct Node {
+    std::string name, kind;  // kind: ticker, join, source, stateless, stateful, sequencer, sink, buffer
+  };
+  struct Edge {
+    int from, to;  // indices into nodes()
+  };
+  const std::vector<Node>& nodes() const { return nodes_; }
+  const std::vector<Edge>& edges() const { return edges_; }
+  // The nodes and edges as text, one per line (for `dynaguide run --print-graph`).
+  std::string Describe() const;
+
+  // Streams the frame range through the graph in the calling thread's task
+  // arena (its parallelism is the caller's to bound). Once per graph.
+  GraphRunResult Run(GraphSink& sink);
+  // The same stages, timings and sink called in sequence on the calling
+  // thread, without the flow graph: the reference for the graph's overhead
+  // (`dynaguide bench pipeline`). Once per graph, instead of Run().
+  GraphRunResult RunInline(GraphSink& sink);
+
+  const PacketSource& source() const { return *source_; }
+
+ private:
+  class Runner;
+  void Plan();
+
+  std::unique_ptr<PacketSource> source_;
+  std::vector<std::unique_ptr<PacketStage>> stages_;
+  GraphOptions options_;
+  std::vector<std::string> stage_names_;
+  std::vector<Node> nodes_;
+  std::vector<Edge> edges_;
+  // For each stage, whether a sequencer precedes it (and, at the end, the sink).
+  std::vector<bool> sequenced_before_;
+  bool ran_ = false;
+};
+
+}  // namespace dg::pipeline

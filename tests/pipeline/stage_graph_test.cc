@@ -1,0 +1,217 @@
+// The flow graph on the tiny phantom's real video: lossless and ordered
+// offline, dropping and bounded in real time, stopped cleanly by a failing
+// stage, and built with exactly the stages a scene needs.
+#include "pipeline/stage_graph.h"
+
+#include <atomic>
+#include <chrono>
+#include <fstream>
+#include <random>
+#include <set>
+#include <thread>
+
+#include <catch2/catch.hpp>
+#include <tbb/global_control.h>
+
+#include "io/calibration.h"
+#include "io/scene.h"
+#include "pipeline/front_end_stages.h"
+#include "pipeline/scene_graph.h"
+#include "sim/error.h"
+#include "stages/rectify.h"
+#include "tests/support/tiny_phantom.h"
+
+namespace dg::pipeline {
+namespace {
+
+using dg::testing::TinyPhantomDir;
+
+io::Scene TinyScene() { return io::ReadScene(TinyPhantomDir() + "/scene.yaml"); }
+
+// Frames in flight, counted from the source's read to the sink.
+std::atomic<int> in_flight{0}, max_in_flight{0};
+
+// The phantom's capture, counting the packets it fills.
+class CountingSource final : public PacketSource {
+ public:
+  explicit CountingSource(const io::Scene& scene) : capture_(Options(scene), false) {}
+  const std::string& name() const override { return capture_.name(); }
+  bool Read(FramePacket& packet) override {
+    if (!capture_.Read(packet)) return false;
+    const int now = ++in_flight;
+    int seen = max_in_flight.load();
+    while (now > seen && !max_in_flight.compare_exchange_weak(seen, now)) {
+    }
+    return true;
+  }
+  bool Skip() override { return capture_.Skip(); }
+  double fps() const override { return capture_.fps(); }
+  int frame_count() const override { return capture_.frame_count(); }
+
+ private:
+  static stages::CaptureStage::Options Options(const io::Scene& scene) {
+    stages::CaptureStage::Options options;
+    options.left_path = scene.video.left;
+    options.right_path = scene.video.right;
+    return options;
+  }
+  CaptureSource capture_;
+};
+
+// A stateless stage that sleeps a random 0-3 ms: frames overtake each other.
+class JitterStage final : public PacketStage {
+ public:
+  const std::string& name() const override { return name_; }
+  bool stateful() const override { return false; }
+  void Process(FramePacket& packet) override {
+    std::mt19937 random(static_cast<unsigned>(packet.index));
+    std::this_thread::sleep_for(std::chrono::microseconds(random() % 3000));
+  }
+
+ private:
+  std::string name_ = "jitter";
+};
+
+// A stateful stage: records the order it sees, sleeps, and may fail.
+class RecordingStage final : public PacketStage {
+ public:
+  RecordingStage(double sleep_ms, std::int64_t fail_at) : sleep_ms_(sleep_ms), fail_at_(fail_at) {}
+  const std::string& name() const override { return name_; }
+  bool stateful() const override { return true; }
+  void Process(FramePacket& packet) override {
+    if (packet.index == fail_at_) throw Error("injected failure", "the test's stage", "none: the test wants it");
+    seen.push_back(packet.index);
+    std::this_thread::sleep_for(std::chrono::duration<double, std::milli>(sleep_ms_));
+  }
+  std::vector<std::int64_t> seen;
+
+ private:
+  std::string name_ = "recorder";
+  double sleep_ms_;
+  std::int64_t fail_at_;
+};
+
+class RecordingSink final : public GraphSink {
+ public:
+  void Consume(const FramePacket& packet) override {
+    --in_flight;
+    frames.push_back(packet.index);
+  }
+  void RecordTimings(std::span<const StageTiming> timings) override { timing_rows += timings.size(); }
+  void RecordDrop(std::int64_t frame, std::int64_t) override { drops.push_back(frame); }
+  std::vector<std::int64_t> frames, drops;
+  std::size_t timing_rows = 0;
+};
+
+struct Outcome {
+  GraphRunResult result;
+  std::vector<std::int64_t> recorded;
+  RecordingSink sink;
+};
+
+Outcome RunTestGraph(int threads, const GraphOptions& options, double sleep_ms, std::int64_t fail_at = -1) {
+  tbb::global_control parallelism(tbb::global_control::max_allowed_parallelism, threads);
+  in_flight = 0;
+  max_in_flight = 0;
+  std::vector<std::unique_ptr<PacketStage>> stages;
+  stages.push_back(std::make_unique<JitterStage>());
+  auto recorder = std::make_unique<RecordingStage>(sleep_ms, fail_at);
+  RecordingStage* recorded = recorder.get();
+  stages.push_back(std::move(recorder));
+  StageGraph graph(std::make_unique<CountingSource>(TinyScene()), std::move(stages), options);
+  Outcome outcome;
+  outcome.result = graph.Run(outcome.sink);
+  outcome.recorded = recorded->seen;
+  return outcome;
+}
+
+std::vector<std::int64_t> Range(std::int64_t first, std::int64_t end) {
+  std::vector<std::int64_t> values;
+  for (std::int64_t v = first; v < end; ++v) values.push_back(v);
+  return values;
+}
+
+}  // namespace
+
+TEST_CASE("graph: built with exactly the stages the scene needs", "[pipeline][integration]") {
+  const io::Scene scene = TinyScene();
+  const SceneGraph raw = BuildSceneGraph(scene, {});
+  std::vector<std::string> names;
+  for (const StageGraph::Node& node : raw.graph->nodes()) names.push_back(node.name);
+  REQUIRE(raw.graph->stage_names() == std::vector<std::string>{"capture", "rectify", "track", "sink"});
+  // rectify may reorder frames (unlimited concurrency): a sequencer restores the order before the tracker.
+  REQUIRE(names == std::vector<std::string>{"free_packets", "ticker", "limiter", "capture", "rectify",
+                                            "order_before_track", "track", "sink"});
+  REQUIRE(raw.graph->edges().size() == 9);
+
+  SECTION("a recording that is already rectified has no rectify node") {
+    io::StereoCalibration calibration = io::ReadStereoCalibration(scene.calibration);
+    calibration.rectification = stages::ComputeRectification(calibration, 0);
+    const std::string rectified_calibration = TinyPhantomDir() + "/calibration_rectified.yaml";
+    io::WriteStereoCalibration(rectified_calibration, calibration);
+    std::string text = scene.text;
+    text.replace(text.find("calibration.yaml"), 16, "calibration_rectified.yaml");
+    text.replace(text.find("video:\n"), 7, "video:\n  rectified: true\n");
+    std::ofstream(TinyPhantomDir() + "/scene_rectified.yaml") << text;
+    const SceneGraph rectified = BuildSceneGraph(io::ReadScene(TinyPhantomDir() + "/scene_rectified.yaml"), {});
+    REQUIRE(rectified.graph->stage_names() == std::vector<std::string>{"capture", "track", "sink"});
+    for (const StageGraph::Node& node : rectified.graph->nodes()) REQUIRE(node.kind != "sequencer");
+  }
+}
+
+TEST_CASE("graph: offline runs are lossless and ordered on 1 and 2 threads", "[pipeline][integration]") {
+  const int frames = TinyScene().video.frames;
+  REQUIRE(frames >= 20);
+  for (int threads : {1, 2}) {
+    CAPTURE(threads);
+    const Outcome outcome = RunTestGraph(threads, {}, 2.0);
+    REQUIRE(outcome.result.complete);
+    REQUIRE(outcome.result.frames_done == frames);
+    REQUIRE(outcome.sink.frames == Range(0, frames));
+    REQUIRE(outcome.recorded == Range(0, frames));
+    REQUIRE(outcome.sink.drops.empty());
+    REQUIRE(outcome.sink.timing_rows == static_cast<std::size_t>(frames) * 4);  // capture, jitter, recorder, sink
+    REQUIRE(max_in_flight.load() <= GraphOptions{}.max_in_flight);
+  }
+}
+
+TEST_CASE("graph: a frame range streams only those frames", "[pipeline][integration]") {
+  GraphOptions options;
+  options.first_frame = 5;
+  options.end_frame = 12;
+  const Outcome outcome = RunTestGraph(2, options, 0);
+  REQUIRE(outcome.result.complete);
+  REQUIRE(outcome.sink.frames == Range(5, 12));
+}
+
+// A stage at 2.5 frame periods cannot keep up with the video clock: frames are
+// dropped at capture, every drop is reported once, every frame is either
+// processed or dropped, and no more than the limit are ever in flight.
+TEST_CASE("graph: realtime drops when a stage is too slow, and logs every drop", "[pipeline][integration]") {
+  const io::Scene scene = TinyScene();
+  const int frames = scene.video.frames;
+  GraphOptions options;
+  options.policy = Policy::kRealtime;
+  const Outcome outcome = RunTestGraph(2, options, 2.5 * 1000 / scene.video.fps);
+  REQUIRE(outcome.result.complete);
+  REQUIRE(outcome.result.frames_dropped > frames / 3);
+  REQUIRE(outcome.sink.drops.size() == static_cast<std::size_t>(outcome.result.frames_dropped));
+  std::set<std::int64_t> accounted(outcome.sink.frames.begin(), outcome.sink.frames.end());
+  for (std::int64_t frame : outcome.sink.drops) REQUIRE(accounted.insert(frame).second);
+  REQUIRE(std::vector<std::int64_t>(accounted.begin(), accounted.end()) == Range(0, frames));
+  REQUIRE(std::is_sorted(outcome.sink.frames.begin(), outcome.sink.frames.end()));
+  REQUIRE(max_in_flight.load() <= options.max_in_flight);
+}
+
+TEST_CASE("graph: a failing stage stops the graph, naming stage and frame", "[pipeline][integration]") {
+  for (int threads : {1, 2}) {
+    CAPTURE(threads);
+    const Outcome outcome = RunTestGraph(threads, {}, 0, 7);
+    REQUIRE_FALSE(outcome.result.complete);
+    REQUIRE_THAT(outcome.result.error, Catch::Contains("stage 'recorder' failed at frame 7") &&
+                                           Catch::Contains("injected failure"));
+    REQUIRE(outcome.sink.frames == Range(0, 7));
+  }
+}
+
+}  // namespace dg::pipeline

@@ -1,0 +1,31 @@
+#include "tests/support/tiny_phantom.h"
+
+#include <unistd.h>
+
+#include <filesystem>
+
+#include "tools/phantom/phantom_generator.h"
+#include "tools/phantom/phantom_spec.h"
+
+namespace dg::testing {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct TemporaryPhantom {
+  std::string dir = (fs::temp_directory_path() / ("dg_tiny_phantom_" + std::to_string(::getpid()))).string();
+  TemporaryPhantom() {
+    fs::remove_all(dir);
+    tools::phantom::GeneratePhantom(tools::phantom::PresetSpec("tiny"), dir, false);
+  }
+  ~TemporaryPhantom() { fs::remove_all(dir); }
+};
+
+}  // namespace
+
+const std::string& TinyPhantomDir() {
+  static const TemporaryPhantom phantom;
+  return phantom.dir;
+}
+
+}  // namespace dg::testing
