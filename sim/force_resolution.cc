@@ -27,52 +27,43 @@ void ForEachBlockChunk(const TledModel<T>& model, Body body) {
   });
 }
 
-// Weights of one block: reads positions x = X + u and forces r scaled by 1/n_a;
-// returns the block's smallest volume ratio det(D) / det(D_reference).
+// Weights of one block: q_c = D^-1 (r_c / n_c) for each corner c, with
+// D = D0 + (u_j - u_0) the edge matrix from corner 0 in the geometry X + u;
+// returns the block's smallest volume ratio det(D) / det(D0).
 template <typename T>
-T ResolveBlock(const TledModel<T>& model, int b, const T* __restrict X, const T* __restrict u,
-               const T* __restrict r, const T* __restrict inverse_count, T* __restrict w) {
+T ResolveBlock(const TledModel<T>& model, int b, const T* __restrict D0, const T* __restrict u,
+               const T* __restrict r, const T* __restrict inverse_count, T* __restrict q) {
   constexpr int W = TledModel<T>::kLanes;
   const int32_t* __restrict nodes = model.block_nodes(b);
   const T* __restrict V0 = model.block_volumes(b);
   alignas(64) T ratio[W];
 #pragma GCC ivdep
   for (int l = 0; l < W; ++l) {
-    T p[4][3], rc[4][3];
-    for (int c = 0; c < 4; ++c) {
-      const int n = nodes[c * W + l];
-      for (int i = 0; i < 3; ++i) {
-        p[c][i] = X[3 * n + i] + u[3 * n + i];
-        rc[c][i] = r[3 * n + i] * inverse_count[n];
-      }
-    }
-    T d[3][3];  // d[j - 1] = x_j - x_0
-    for (int j = 0; j < 3; ++j) {
-      for (int i = 0; i < 3; ++i) d[j][i] = p[j + 1][i] - p[0][i];
-    }
-    // Rows of [d1 d2 d3]^-1 times det: d2 x d3, d3 x d1, d1 x d2.
-    T row[3][3];
-    for (int j = 0; j < 3; ++j) {
-      const T* e = d[(j + 1) % 3];
-      const T* f = d[(j + 2) % 3];
-      row[j][0] = e[1] * f[2] - e[2] * f[1];
-      row[j][1] = e[2] * f[0] - e[0] * f[2];
-      row[j][2] = e[0] * f[1] - e[1] * f[0];
-    }
-    const T det = d[0][0] * row[0][0] + d[0][1] * row[0][1] + d[0][2] * row[0][2];
+    const int n0 = 3 * nodes[l], n1 = 3 * nodes[W + l], n2 = 3 * nodes[2 * W + l], n3 = 3 * nodes[3 * W + l];
+    // Columns d1, d2, d3 of D.
+    const T d1x = D0[0 * W + l] + (u[n1] - u[n0]), d1y = D0[1 * W + l] + (u[n1 + 1] - u[n0 + 1]),
+            d1z = D0[2 * W + l] + (u[n1 + 2] - u[n0 + 2]);
+    const T d2x = D0[3 * W + l] + (u[n2] - u[n0]), d2y = D0[4 * W + l] + (u[n2 + 1] - u[n0 + 1]),
+            d2z = D0[5 * W + l] + (u[n2 + 2] - u[n0 + 2]);
+    const T d3x = D0[6 * W + l] + (u[n3] - u[n0]), d3y = D0[7 * W + l] + (u[n3 + 1] - u[n0 + 1]),
+            d3z = D0[8 * W + l] + (u[n3 + 2] - u[n0 + 2]);
+    // Rows of D^-1 times det(D): d2 x d3, d3 x d1, d1 x d2.
+    const T a0 = d2y * d3z - d2z * d3y, a1 = d2z * d3x - d2x * d3z, a2 = d2x * d3y - d2y * d3x;
+    const T b0 = d3y * d1z - d3z * d1y, b1 = d3z * d1x - d3x * d1z, b2 = d3x * d1y - d3y * d1x;
+    const T c0 = d1y * d2z - d1z * d2y, c1 = d1z * d2x - d1x * d2z, c2 = d1x * d2y - d1y * d2x;
+    const T det = d1x * a0 + d1y * a1 + d1z * a2;
     const bool real = V0[l] > 0;  // padding lanes have no volume and no incidences
     ratio[l] = real ? det / (6 * V0[l]) : T(1);
     const T inv_det = real ? T(1) / det : T(0);
+    const int corner_dof[4] = {n0, n1, n2, n3};
     for (int c = 0; c < 4; ++c) {
-      T q[3];
-      for (int j = 0; j < 3; ++j) q[j] = inv_det * (row[j][0] * rc[c][0] + row[j][1] * rc[c][1] + row[j][2] * rc[c][2]);
-      // Edges to the other corners in increasing order: corner 0's are d1..d3;
-      // corner c's edge to corner 0 carries -(q1 + q2 + q3), to corner j q_j.
-      T* wc = w + size_t(c) * 3 * W;
-      for (int k = 0; k < 3; ++k) {
-        const int j = k < c ? k : k + 1;
-        wc[k * W + l] = j == 0 ? -(q[0] + q[1] + q[2]) : q[j - 1];
-      }
+      const int n = corner_dof[c];
+      const T scale = inv_det * inverse_count[n / 3];
+      const T rx = r[n] * scale, ry = r[n + 1] * scale, rz = r[n + 2] * scale;
+      T* qc = q + size_t(c) * 3 * W;
+      qc[0 * W + l] = a0 * rx + a1 * ry + a2 * rz;
+      qc[1 * W + l] = b0 * rx + b1 * ry + b2 * rz;
+      qc[2 * W + l] = c0 * rx + c1 * ry + c2 * rz;
     }
   }
   T smallest = ratio[0];
@@ -80,27 +71,29 @@ T ResolveBlock(const TledModel<T>& model, int b, const T* __restrict X, const T*
   return smallest;
 }
 
-// Corner forces of one block, sum_k w_k (x_{j_k} - x_c), in the TLED kernel's layout.
+// Corner forces of one block, f_c = D' q_c with D' = D0 + (u_j - u_0) the
+// current edges, in the TLED kernel's layout.
 template <typename T>
-void ApplyBlock(const TledModel<T>& model, int b, const T* __restrict X, const T* __restrict u,
-                const T* __restrict w, T* __restrict f) {
+void ApplyBlock(const TledModel<T>& model, int b, const T* __restrict D0, const T* __restrict u,
+                const T* __restrict q, T* __restrict f) {
   constexpr int W = TledModel<T>::kLanes;
   const int32_t* __restrict nodes = model.block_nodes(b);
 #pragma GCC ivdep
   for (int l = 0; l < W; ++l) {
-    T p[4][3];
+    const int n0 = 3 * nodes[l], n1 = 3 * nodes[W + l], n2 = 3 * nodes[2 * W + l], n3 = 3 * nodes[3 * W + l];
+    const T d1x = D0[0 * W + l] + (u[n1] - u[n0]), d1y = D0[1 * W + l] + (u[n1 + 1] - u[n0 + 1]),
+            d1z = D0[2 * W + l] + (u[n1 + 2] - u[n0 + 2]);
+    const T d2x = D0[3 * W + l] + (u[n2] - u[n0]), d2y = D0[4 * W + l] + (u[n2 + 1] - u[n0 + 1]),
+            d2z = D0[5 * W + l] + (u[n2 + 2] - u[n0 + 2]);
+    const T d3x = D0[6 * W + l] + (u[n3] - u[n0]), d3y = D0[7 * W + l] + (u[n3 + 1] - u[n0 + 1]),
+            d3z = D0[8 * W + l] + (u[n3 + 2] - u[n0 + 2]);
     for (int c = 0; c < 4; ++c) {
-      const int n = nodes[c * W + l];
-      for (int i = 0; i < 3; ++i) p[c][i] = X[3 * n + i] + u[3 * n + i];
-    }
-    for (int c = 0; c < 4; ++c) {
-      const T* wc = w + size_t(c) * 3 * W;
-      T sum[3] = {0, 0, 0};
-      for (int k = 0; k < 3; ++k) {
-        const int j = k < c ? k : k + 1;
-        for (int i = 0; i < 3; ++i) sum[i] += wc[k * W + l] * (p[j][i] - p[c][i]);
-      }
-      for (int i = 0; i < 3; ++i) f[(c * 3 + i) * W + l] = sum[i];
+      const T* qc = q + size_t(c) * 3 * W;
+      const T q1 = qc[0 * W + l], q2 = qc[1 * W + l], q3 = qc[2 * W + l];
+      T* fc = f + size_t(c) * 3 * W;
+      fc[0 * W + l] = d1x * q1 + d2x * q2 + d3x * q3;
+      fc[1 * W + l] = d1y * q1 + d2y * q2 + d3y * q3;
+      fc[2 * W + l] = d1z * q1 + d2z * q2 + d3z * q3;
     }
   }
 }
@@ -120,9 +113,18 @@ WorstElement FindWorstElement(const TetMesh& mesh, const T* u) {
 template <typename T>
 ForceResolution<T>::ForceResolution(std::shared_ptr<const TledModel<T>> model) : model_(std::move(model)) {
   const TetMesh& mesh = model_->mesh();
-  X_.resize(3 * size_t(mesh.num_nodes()));
-  for (int a = 0; a < mesh.num_nodes(); ++a) {
-    for (int i = 0; i < 3; ++i) X_[3 * a + i] = static_cast<T>(mesh.X_m(i, a));
+  constexpr int W = TledModel<T>::kLanes;
+  // Reference edges in double, then rounded once: edges of millimetres taken
+  // from float positions of centimetres would lose three digits.
+  reference_edges_.assign(size_t(model_->num_blocks()) * 9 * W, T(0));
+  for (int b = 0; b < model_->num_blocks(); ++b) {
+    const int32_t* nodes = model_->block_nodes(b);
+    for (int l = 0; l < W; ++l) {
+      for (int j = 0; j < 3; ++j) {
+        const Eigen::Vector3d edge = mesh.X_m.col(nodes[(j + 1) * W + l]) - mesh.X_m.col(nodes[l]);
+        for (int i = 0; i < 3; ++i) reference_edges_[(size_t(b) * 9 + 3 * j + i) * W + l] = static_cast<T>(edge[i]);
+      }
+    }
   }
   inverse_count_.resize(mesh.num_nodes());
   for (int a = 0; a < mesh.num_nodes(); ++a) {
@@ -135,12 +137,15 @@ ForceResolution<T>::ForceResolution(std::shared_ptr<const TledModel<T>> model) :
 template <typename T>
 void ForceResolution<T>::Resolve(std::span<const T> u_model, std::span<const T> forces_n, std::span<T> weights) {
   const TledModel<T>& model = *model_;
-  DG_CHECK(u_model.size() == X_.size() && forces_n.size() == X_.size() && weights.size() == weights_size());
+  const size_t n_dofs = 3 * inverse_count_.size();
+  DG_CHECK(u_model.size() == n_dofs && forces_n.size() == n_dofs && weights.size() == weights_size());
+  constexpr int W = TledModel<T>::kLanes;
   ForEachBlockChunk(model, [&](int chunk, int begin, int end) {
     T smallest = T(1);
     for (int b = begin; b < end; ++b) {
-      smallest = std::min(smallest, ResolveBlock(model, b, X_.data(), u_model.data(), forces_n.data(),
-                                                 inverse_count_.data(), weights.data() + size_t(b) * 12 * model.kLanes));
+      smallest = std::min(smallest, ResolveBlock(model, b, reference_edges_.data() + size_t(b) * 9 * W,
+                                                 u_model.data(), forces_n.data(), inverse_count_.data(),
+                                                 weights.data() + size_t(b) * 12 * W));
     }
     chunk_min_ratio_[chunk] = smallest;
   });
@@ -153,11 +158,14 @@ void ForceResolution<T>::Resolve(std::span<const T> u_model, std::span<const T> 
 template <typename T>
 void ForceResolution<T>::Apply(std::span<const T> weights, std::span<const T> u, std::span<T> forces_n) {
   const TledModel<T>& model = *model_;
-  DG_CHECK(u.size() == X_.size() && forces_n.size() == X_.size() && weights.size() == weights_size());
+  const size_t n_dofs = 3 * inverse_count_.size();
+  DG_CHECK(u.size() == n_dofs && forces_n.size() == n_dofs && weights.size() == weights_size());
+  constexpr int W = TledModel<T>::kLanes;
   ForEachBlockChunk(model, [&](int, int begin, int end) {
     for (int b = begin; b < end; ++b) {
-      const size_t offset = size_t(b) * 12 * model.kLanes;
-      ApplyBlock(model, b, X_.data(), u.data(), weights.data() + offset, corner_forces_.data() + offset);
+      const size_t offset = size_t(b) * 12 * W;
+      ApplyBlock(model, b, reference_edges_.data() + size_t(b) * 9 * W, u.data(), weights.data() + offset,
+                 corner_forces_.data() + offset);
     }
   });
   const int chunks = (model.num_nodes() + kNodesPerChunk - 1) / kNodesPerChunk;
@@ -171,7 +179,7 @@ void ForceResolution<T>::Apply(std::span<const T> weights, std::span<const T> u,
 
 template <typename T>
 void ForceResolution<T>::CheckGeometry(std::span<const T> u, const std::string& when) const {
-  DG_CHECK(u.size() == X_.size());
+  DG_CHECK(u.size() == 3 * inverse_count_.size());
   const WorstElement worst = FindWorstElement(model_->mesh(), u.data());
   if (!(worst.volume_ratio >= kMinVolumeRatio)) ThrowDegenerate(worst, when);
 }

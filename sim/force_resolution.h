@@ -29,12 +29,17 @@ WorstElement FindWorstElement(const TetMesh& mesh, const T* u);
 // stretches with the element it acts in: under a rigid rotation of the mesh it
 // rotates with it, and where nothing constrains the motion it is r again.
 //
-// Per element, with d_j = x_j - x_0 (j = 1..3) and q = [d1 d2 d3]^-1 (r / n_a):
-// corner 0 has w = q on the edges to corners 1, 2, 3; corner c >= 1 has
-// w_j = q_j on the edges to corners j != 0, c and -(q1 + q2 + q3) on the edge
-// to corner 0 (since x_j - x_c = d_j - d_c). One 3x3 inverse per element serves
-// all four corners. Weights live in the kernel's block layout,
-// [block][corner][edge][lane], edges to the other corners in increasing order.
+// Per element, with D = [d1 d2 d3], d_j = x_j - x_0, the edges from corner 0,
+// the weights of corner c are stored as q_c = D^-1 (r_c / n_c), the force's
+// coordinates in those edges: corner 0's eq. 5 weights are q itself, and
+// corner c >= 1's on its own edges x_j - x_c = d_j - d_c are q_j towards
+// corners j != 0, c and -(q1 + q2 + q3) towards corner 0. That relabelling
+// does not depend on the geometry, so applying the weights to any geometry's
+// edges is f_c = D' q_c: one 3x3 inverse per element serves all four corners,
+// and one edge matrix all four applications. Edges are formed as reference
+// edges (precomputed in double) plus displacement differences, which keeps
+// float's digits for millimetre edges. Storage: the kernel's block layout,
+// [block][corner][coordinate][lane].
 //
 // Threading: Resolve() and Apply() run under tbb::parallel_for in fixed
 // chunks: results do not depend on the thread count. They use separate
@@ -67,7 +72,7 @@ class ForceResolution {
   [[noreturn]] void ThrowDegenerate(const WorstElement& worst, const std::string& when) const;
 
   std::shared_ptr<const TledModel<T>> model_;
-  AlignedVector<T> X_;              // reference positions, 3 per node
+  AlignedVector<T> reference_edges_;  // D0 per element: [block][edge][xyz][lane]
   std::vector<T> inverse_count_;    // per node: 1 / (number of its elements)
   AlignedVector<T> corner_forces_;  // Apply()'s element-major forces, as the TLED kernel's
   std::vector<T> chunk_min_ratio_;  // Resolve()'s smallest volume ratio per chunk

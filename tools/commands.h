@@ -13,6 +13,8 @@ void AddBenchCommand(CLI::App& app);
 void AddCalibrateCommand(CLI::App& app);
 void AddMeshCommand(CLI::App& app);
 void AddPhantomCommand(CLI::App& app);
+void AddReportCommand(CLI::App& app);
+void AddRunCommand(CLI::App& app);
 void AddTrackCommand(CLI::App& app);
 
 }  // namespace dg::tools

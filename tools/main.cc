@@ -15,6 +15,8 @@ int main(int argc, char** argv) {
   dg::tools::AddCalibrateCommand(app);
   dg::tools::AddMeshCommand(app);
   dg::tools::AddPhantomCommand(app);
+  dg::tools::AddRunCommand(app);
+  dg::tools::AddReportCommand(app);
   dg::tools::AddTrackCommand(app);
   try {
     app.parse(argc, argv);
