@@ -1,0 +1,182 @@
+// `dynaguide run` and `dynaguide report` on the tiny phantom: the run log
+// reads back through the HDF5 C API (not the writer's code) with the
+// documented datasets, row counts and attributes; a run stopped by a failing
+// stage leaves a readable log marked incomplete; the report recomputes the
+// run's summary from the saved log.
+#include <filesystem>
+#include <fstream>
+
+#include <catch2/catch.hpp>
+#include <hdf5.h>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <opencv2/videoio.hpp>
+
+#include "sim/error.h"
+#include "tests/support/tiny_phantom.h"
+#include "tools/report/saved_run.h"
+#include "tools/report/timing_plot.h"
+#include "tools/run/run_job.h"
+
+namespace dg::tools {
+namespace {
+
+namespace fs = std::filesystem;
+using dg::testing::TinyPhantomDir;
+
+// A dataset's length, an integer or a string attribute, through the plain C API.
+hsize_t Rows(hid_t file, const char* dataset) {
+  const hid_t set = H5Dopen2(file, dataset, H5P_DEFAULT);
+  REQUIRE(set >= 0);
+  const hid_t space = H5Dget_space(set);
+  hsize_t dims[2] = {0, 0};
+  H5Sget_simple_extent_dims(space, dims, nullptr);
+  H5Sclose(space);
+  H5Dclose(set);
+  return dims[0];
+}
+
+long long IntAttribute(hid_t file, const char* object, const char* name) {
+  long long value = -1;
+  const hid_t attribute = H5Aopen_by_name(file, object, name, H5P_DEFAULT, H5P_DEFAULT);
+  REQUIRE(attribute >= 0);
+  REQUIRE(H5Aread(attribute, H5T_NATIVE_LLONG, &value) >= 0);
+  H5Aclose(attribute);
+  return value;
+}
+
+// A variable-length UTF-8 string, as h5py reads one.
+template <typename Read>
+std::string VariableString(Read&& read) {
+  const hid_t type = H5Tcopy(H5T_C_S1);
+  H5Tset_size(type, H5T_VARIABLE);
+  H5Tset_cset(type, H5T_CSET_UTF8);
+  char* text = nullptr;
+  REQUIRE(read(type, &text) >= 0);
+  std::string value = text;
+  H5free_memory(text);
+  H5Tclose(type);
+  return value;
+}
+
+std::string StringAttribute(hid_t file, const char* object, const char* name) {
+  const hid_t attribute = H5Aopen_by_name(file, object, name, H5P_DEFAULT, H5P_DEFAULT);
+  REQUIRE(attribute >= 0);
+  std::string value = VariableString([&](hid_t type, char** text) { return H5Aread(attribute, type, text); });
+  H5Aclose(attribute);
+  return value;
+}
+
+std::string StringDataset(hid_t file, const char* name) {
+  const hid_t set = H5Dopen2(file, name, H5P_DEFAULT);
+  REQUIRE(set >= 0);
+  std::string value = VariableString(
+      [&](hid_t type, char** text) { return H5Dread(set, type, H5S_ALL, H5S_ALL, H5P_DEFAULT, text); });
+  H5Dclose(set);
+  return value;
+}
+
+std::string ReadText(const std::string& path) {
+  std::ifstream in(path);
+  return {std::istreambuf_iterator<char>(in), {}};
+}
+
+std::int64_t CountFrames(const std::string& video_path) {
+  cv::VideoCapture video(video_path);
+  std::int64_t frames = 0;
+  for (cv::Mat frame; video.read(frame);) ++frames;
+  return frames;
+}
+
+}  // namespace
+
+TEST_CASE("run: the tiny phantom end to end, and its report", "[tools][integration]") {
+  RunOptions options;
+  options.scene = TinyPhantomDir() + "/scene.yaml";
+  options.out_dir = TinyPhantomDir() + "/run";
+  options.threads = 2;
+  options.progress = false;
+  const RunOutcome outcome = RunScene(options);
+  const int frames = 30;  // the tiny preset's video: 1 s at 30 fps
+  REQUIRE(outcome.statistics.frames == frames);
+  REQUIRE(outcome.statistics.complete);
+  REQUIRE(CountFrames(outcome.video_path) == frames);
+
+  const hid_t file = H5Fopen(outcome.log_path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+  REQUIRE(file >= 0);
+  CHECK(IntAttribute(file, "/", "complete") == 1);
+  CHECK(IntAttribute(file, "/", "threads") == 2);
+  CHECK(StringAttribute(file, "/", "policy") == "offline");
+  CHECK_FALSE(StringAttribute(file, "/", "version").empty());
+  CHECK(StringAttribute(file, "/timings", "stage_names") == "capture,rectify,track,sink");
+  // One row per stage per frame, in every column.
+  for (const char* column : {"/timings/frame", "/timings/stage", "/timings/thread", "/timings/start_ns",
+                             "/timings/end_ns"}) {
+    CHECK(Rows(file, column) == static_cast<hsize_t>(frames) * 4);
+  }
+  CHECK(Rows(file, "/drops/frame") == 0);
+  const hsize_t track_rows = Rows(file, "/tracks/id");
+  CHECK(track_rows > static_cast<hsize_t>(frames) * 20);  // the tiny view holds a few dozen tracks
+  CHECK(Rows(file, "/tracks/xyz_C_m") == track_rows);
+  CHECK(StringDataset(file, "/scene") == ReadText(options.scene));  // verbatim
+  H5Fclose(file);
+
+  SECTION("the report recomputes the run's summary from the log, and plots it") {
+    const SavedRun saved = ReadSavedRun(outcome.log_path);
+    REQUIRE(saved.statistics.frames == outcome.statistics.frames);
+    REQUIRE(saved.statistics.stages.size() == outcome.statistics.stages.size());
+    for (size_t s = 0; s < saved.statistics.stages.size(); ++s) {
+      CHECK(saved.statistics.stages[s].median_ms == Approx(outcome.statistics.stages[s].median_ms));
+      CHECK(saved.statistics.stages[s].p95_ms == Approx(outcome.statistics.stages[s].p95_ms));
+    }
+    CHECK(saved.statistics.latency_median_ms == Approx(outcome.statistics.latency_median_ms));
+    CHECK(saved.statistics.realtime_factor == Approx(outcome.statistics.realtime_factor));
+    const std::string plot = TinyPhantomDir() + "/run/timings.png";
+    WriteTimingPlot(saved, plot);
+    const cv::Mat image = cv::imread(plot);
+    CHECK(image.cols == 1200);
+    CHECK(image.rows == 600);
+  }
+}
+
+// The recording as image sequences whose eighth left image has another size:
+// the capture stage fails at frame 7, the run throws naming stage and frame,
+// and the log holds frames 0-6 and is marked incomplete.
+TEST_CASE("run: a failing stage leaves a readable log marked incomplete", "[tools][integration]") {
+  const std::string dir = TinyPhantomDir();
+  fs::create_directories(dir + "/sequence");
+  cv::VideoCapture left(dir + "/video/left.avi"), right(dir + "/video/right.avi");
+  cv::Mat image;
+  for (int frame = 0; frame < 12; ++frame) {
+    char name[64];
+    REQUIRE(left.read(image));
+    if (frame == 7) cv::resize(image, image, {image.cols / 2, image.rows / 2});
+    std::snprintf(name, sizeof name, "/sequence/left_%02d.png", frame);
+    cv::imwrite(dir + name, image);
+    REQUIRE(right.read(image));
+    std::snprintf(name, sizeof name, "/sequence/right_%02d.png", frame);
+    cv::imwrite(dir + name, image);
+  }
+  std::string text = ReadText(dir + "/scene.yaml");
+  const std::string videos = "  left: video/left.avi\n  right: video/right.avi\n";
+  text.replace(text.find(videos), videos.size(),
+               "  layout: image_sequences\n  left: sequence/left_%02d.png\n  right: sequence/right_%02d.png\n");
+  std::ofstream(dir + "/scene_sequence.yaml") << text;
+
+  RunOptions options;
+  options.scene = dir + "/scene_sequence.yaml";
+  options.out_dir = dir + "/run_failing";
+  options.threads = 2;
+  options.progress = false;
+  REQUIRE_THROWS_WITH(RunScene(options), Catch::Contains("stage 'capture' failed at frame 7"));
+
+  const std::string log = options.out_dir + "/run.h5";
+  const hid_t file = H5Fopen(log.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+  REQUIRE(file >= 0);
+  CHECK(IntAttribute(file, "/", "complete") == 0);
+  CHECK_THAT(StringAttribute(file, "/", "error"), Catch::Contains("frame 7"));
+  CHECK(Rows(file, "/timings/frame") == 7 * 4);
+  H5Fclose(file);
+}
+
+}  // namespace dg::tools

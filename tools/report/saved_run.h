@@ -1,0 +1,24 @@
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "pipeline/frame_packet.h"
+#include "pipeline/run_statistics.h"
+
+namespace dg::tools {
+
+// A run log read back: what `dynaguide report` summarises and plots.
+struct SavedRun {
+  std::string path;
+  std::vector<std::string> stage_names;
+  std::vector<pipeline::StageTiming> timings;
+  pipeline::RunStatistics statistics;  // recomputed from the timings, as `dynaguide run` computed them
+  std::string policy, error;
+  int threads = 0;
+};
+
+// @throws dg::Error naming the file when it is not a run log (no /timings).
+SavedRun ReadSavedRun(const std::string& path);
+
+}  // namespace dg::tools

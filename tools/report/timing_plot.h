@@ -1,0 +1,14 @@
+#pragma once
+
+#include <string>
+
+#include "tools/report/saved_run.h"
+
+namespace dg::tools {
+
+// A PNG for a person: each stage's time per frame (ms) against the frame
+// number, one coloured line per stage, with axes, ticks and a legend.
+// @throws dg::Error when the file cannot be written.
+void WriteTimingPlot(const SavedRun& run, const std::string& png_path);
+
+}  // namespace dg::tools

@@ -1,0 +1,79 @@
+// `dynaguide run`: the recorded stereo video of a scene through the TBB flow graph.
+#include <cstdio>
+#include <regex>
+
+#include <CLI/CLI.hpp>
+
+#include "sim/error.h"
+#include "tools/commands.h"
+#include "tools/run/run_job.h"
+
+namespace dg::tools {
+namespace {
+
+struct RunArguments {
+  RunOptions options;
+  std::string policy = "offline";
+  std::string frames;
+  bool print_graph = false;
+  bool quiet = false;
+  bool no_video = false;
+};
+
+// "A:B" (frames A to B-1), "A:" or ":B".
+void ParseFrameRange(const std::string& text, pipeline::GraphOptions* graph) {
+  std::smatch match;
+  if (!std::regex_match(text, match, std::regex(R"((\d*):(\d*))"))) {
+    throw Error("--frames must be A:B, A: or :B (got '" + text + "')", "--frames",
+                "write e.g. 0:90 for the first 90 frames");
+  }
+  if (match[1].length()) graph->first_frame = std::stoll(match[1]);
+  if (match[2].length()) graph->end_frame = std::stoll(match[2]);
+}
+
+void RunRunCommand(RunArguments& args) {
+  RunOptions& options = args.options;
+  options.graph.policy = pipeline::ParsePolicy(args.policy);
+  if (!args.frames.empty()) ParseFrameRange(args.frames, &options.graph);
+  options.progress = !args.quiet;
+  options.video = !args.no_video;
+  if (args.print_graph) {
+    std::fputs(DescribeRunGraph(options).c_str(), stdout);
+    return;
+  }
+  const RunOutcome outcome = RunScene(options);
+  std::printf("dynaguide run: %s\n%s", outcome.log_path.c_str(), outcome.statistics.Text().c_str());
+  if (!outcome.video_path.empty()) {
+    std::printf("annotated video: %s (%lld frames dropped by the encoder)\n", outcome.video_path.c_str(),
+                static_cast<long long>(outcome.video_frames_dropped));
+  }
+}
+
+}  // namespace
+
+void AddRunCommand(CLI::App& app) {
+  auto args = std::make_shared<RunArguments>();
+  CLI::App* command = app.add_subcommand(
+      "run", "Stream a scene's recorded stereo video through the graph (no scene: the built-in default phantom)");
+  command->add_option("scene", args->options.scene, "scene.yaml (default: the phantom, generated once into the cache)");
+  command->add_option("--out", args->options.out_dir, "Output directory: run.h5 and annotated.avi")->capture_default_str();
+  command->add_option("--threads", args->options.threads, "Threads for the whole run (default: all cores)")
+      ->check(CLI::PositiveNumber);
+  command->add_option("--policy", args->policy, "offline (lossless) | realtime (paced to the video, drops frames)")
+      ->check(CLI::IsMember({"offline", "realtime"}))
+      ->capture_default_str();
+  command->add_option("--frames", args->frames, "Frame range A:B (frames A to B-1), A: or :B");
+  command->add_option("--in-flight", args->options.graph.max_in_flight, "Frames in flight at most")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  command->add_option("--near", args->options.front_end.near_m, "Nearest depth stereo matching searches, metres")
+      ->capture_default_str();
+  command->add_option("--far", args->options.front_end.far_m, "Farthest depth stereo matching searches, metres")
+      ->capture_default_str();
+  command->add_flag("--print-graph", args->print_graph, "Print the graph's nodes and edges and exit");
+  command->add_flag("--no-video", args->no_video, "Do not write the annotated video");
+  command->add_flag("--quiet", args->quiet, "No progress lines");
+  command->callback([args] { RunRunCommand(*args); });
+}
+
+}  // namespace dg::tools

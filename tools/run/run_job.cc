@@ -1,0 +1,102 @@
+#include "tools/run/run_job.h"
+
+#include <cstdio>
+#include <filesystem>
+#include <optional>
+
+#include <tbb/global_control.h>
+#include <tbb/info.h>
+
+#include "io/run_log.h"
+#include "io/scene.h"
+#include "pipeline/annotated_video.h"
+#include "pipeline/run_log_sink.h"
+#include "sim/error.h"
+#include "tools/machine_info.h"
+#include "tools/progress.h"
+#include "tools/run/default_scene.h"
+
+namespace dg::tools {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string ScenePath(const RunOptions& options) {
+  return options.scene.empty() ? DefaultScenePath(options.progress) : options.scene;
+}
+
+std::string MachineText(int threads) {
+  const MachineInfo machine = ReadMachineInfo();
+  return machine.cpu_model + ", " + std::to_string(machine.logical_cores) + " logical cores (" +
+         std::to_string(threads) + " used), " + machine.simd + ", " + machine.compiler;
+}
+
+// Frames the run will take from the source, for progress: the range, cut by the recording's length.
+std::int64_t FramesInRange(const pipeline::GraphOptions& graph, int recording_frames) {
+  const std::int64_t end = graph.end_frame >= 0 ? std::min<std::int64_t>(graph.end_frame, recording_frames)
+                                                : recording_frames;
+  return std::max<std::int64_t>(0, end - graph.first_frame);
+}
+
+}  // namespace
+
+std::string DescribeRunGraph(const RunOptions& options) {
+  const io::Scene scene = io::ReadScene(ScenePath(options));
+  return pipeline::BuildSceneGraph(scene, options.graph, options.front_end).graph->Describe();
+}
+
+RunOutcome RunScene(const RunOptions& options) {
+  const int threads = options.threads > 0 ? options.threads : tbb::info::default_concurrency();
+  tbb::global_control parallelism(tbb::global_control::max_allowed_parallelism, threads);
+  const io::Scene scene = io::ReadScene(ScenePath(options));
+  pipeline::SceneGraph built = pipeline::BuildSceneGraph(scene, options.graph, options.front_end);
+  const pipeline::PacketSource& source = built.graph->source();
+
+  std::error_code error;
+  fs::create_directories(options.out_dir, error);
+  if (error) throw Error("cannot create the output directory: " + error.message(), options.out_dir, "check the path");
+  RunOutcome outcome;
+  outcome.log_path = (fs::path(options.out_dir) / "run.h5").string();
+  io::RunLog log(outcome.log_path, scene.text,
+                 {DG_VERSION, pipeline::PolicyName(options.graph.policy), MachineText(threads), threads, source.fps()},
+                 built.graph->stage_names());
+
+  std::vector<pipeline::RunLogSink::Consumer> consumers;
+  std::optional<pipeline::AnnotatedVideo> video;
+  if (options.video) {
+    outcome.video_path = (fs::path(options.out_dir) / "annotated.avi").string();
+    const cv::Size size(built.calibration.left.width, built.calibration.left.height);
+    video.emplace(outcome.video_path, source.fps(), size, options.graph.policy);
+    consumers.push_back([&video](const pipeline::FramePacket& packet) { video->Add(packet); });
+  }
+  Progress progress("run", static_cast<double>(FramesInRange(options.graph, source.frame_count())), options.progress);
+  std::int64_t done = 0;
+  const auto start = std::chrono::steady_clock::now();
+  consumers.push_back([&](const pipeline::FramePacket&) {
+    const double elapsed_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    char rate[64];
+    std::snprintf(rate, sizeof rate, "%.1f frames/s", ++done / std::max(elapsed_s, 1e-9));
+    progress.Update(static_cast<double>(done), rate);
+  });
+
+  pipeline::RunLogSink sink(log, std::move(consumers));
+  const pipeline::GraphRunResult result = built.graph->Run(sink);
+  progress.Finish();
+  if (video) {
+    video->Close();
+    outcome.video_frames_dropped = static_cast<std::int64_t>(video->dropped());
+  }
+  outcome.statistics = pipeline::Summarize(sink.timings(), built.graph->stage_names(), result.frames_dropped,
+                                           result.wall_s, source.fps(), result.complete);
+  log.file().WriteAttribute("/", "frames", result.frames_done);
+  log.file().WriteAttribute("/", "frames_dropped", result.frames_dropped);
+  log.file().WriteAttribute("/", "wall_s", result.wall_s);
+  log.Finish(result.complete, result.error);
+  if (!result.complete) {
+    throw Error(result.error, outcome.log_path,
+                "the frames before the failure are in " + options.out_dir + " (marked complete = 0)");
+  }
+  return outcome;
+}
+
+}  // namespace dg::tools

@@ -1,0 +1,38 @@
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+#include "pipeline/run_statistics.h"
+#include "pipeline/scene_graph.h"
+#include "pipeline/stage_graph.h"
+
+namespace dg::tools {
+
+struct RunOptions {
+  std::string scene;                // empty: the built-in default scene
+  std::string out_dir = "out/run";  // run.h5 and annotated.avi go here
+  int threads = 0;                  // 0: all cores
+  pipeline::GraphOptions graph;     // policy, frames in flight, frame range
+  pipeline::FrontEndSettings front_end;
+  bool video = true;     // write the annotated video
+  bool progress = true;  // progress lines on stderr
+};
+
+struct RunOutcome {
+  pipeline::RunStatistics statistics;
+  std::string log_path, video_path;
+  std::int64_t video_frames_dropped = 0;
+};
+
+// The graph a run would build, as text (`dynaguide run --print-graph`).
+std::string DescribeRunGraph(const RunOptions& options);
+
+// `dynaguide run`: streams the scene's recording through its graph, writing
+// the HDF5 run log and the annotated video into out_dir.
+// @throws dg::Error for a bad scene or options before the run, and, after the
+// outputs are flushed and marked incomplete, when a stage failed (naming the
+// stage and the frame).
+RunOutcome RunScene(const RunOptions& options);
+
+}  // namespace dg::tools
