@@ -35,7 +35,7 @@ bool CaptureSource::Read(FramePacket& packet) {
 bool CaptureSource::Skip() { return capture_.Next().has_value(); }
 
 void RectifyAdapter::Process(FramePacket& packet) {
-  packet.rectified = rectify_->Process({packet.index, packet.t_s, packet.left_grey, packet.right_grey});
+  rectify_->Process({packet.index, packet.t_s, packet.left_grey, packet.right_grey}, &packet.rectified);
 }
 
 void TrackAdapter::Process(FramePacket& packet) {

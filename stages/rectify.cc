@@ -81,6 +81,12 @@ RectifyStage::RectifyStage(const Options& options, const io::StereoCalibration& 
 }
 
 RectifiedPair RectifyStage::Process(const StereoFrame& frame) const {
+  RectifiedPair pair;
+  Process(frame, &pair);
+  return pair;
+}
+
+void RectifyStage::Process(const StereoFrame& frame, RectifiedPair* into) const {
   for (const cv::Mat* image : {&frame.left, &frame.right}) {
     if (image->size() != camera_.size) {
       throw Error("frame " + std::to_string(frame.index) + " is " + SizeText(image->size()) +
@@ -89,11 +95,11 @@ RectifiedPair RectifyStage::Process(const StereoFrame& frame) const {
                   "use the calibration of the camera and resolution that recorded the video");
     }
   }
-  RectifiedPair pair{frame.index, frame.t_s, cv::Mat(), cv::Mat()};
+  into->index = frame.index;
+  into->t_s = frame.t_s;
   tbb::parallel_invoke(
-      [&] { cv::remap(frame.left, pair.left, map1_left_, map2_left_, options_.interpolation); },
-      [&] { cv::remap(frame.right, pair.right, map1_right_, map2_right_, options_.interpolation); });
-  return pair;
+      [&] { cv::remap(frame.left, into->left, map1_left_, map2_left_, options_.interpolation); },
+      [&] { cv::remap(frame.right, into->right, map1_right_, map2_right_, options_.interpolation); });
 }
 
 std::optional<Eigen::Vector2d> RectifyStage::RectifyPixel(Eye eye, const Eigen::Vector2d& uv_distorted) const {

@@ -61,6 +61,9 @@ class RectifyStage {
 
   // @throws dg::Error when the frame's size is not the calibration's (naming both).
   RectifiedPair Process(const StereoFrame& frame) const;
+  // The same into `into`'s images, which are reused when they have the size
+  // already (a pipeline's pooled buffers: no allocation per frame).
+  void Process(const StereoFrame& frame, RectifiedPair* into) const;
 
   const RectifiedCamera& camera() const { return camera_; }
   // The rectification these maps apply (R1 R2 P1 P2 Q), for the triangulator:
