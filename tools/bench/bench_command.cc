@@ -1,4 +1,5 @@
 // `dynaguide bench sim|vision`: throughput figures that the README quotes.
+#include <algorithm>
 #include <cstdio>
 
 #include <CLI/CLI.hpp>
@@ -44,11 +45,16 @@ void AddBenchCommand(CLI::App& app) {
 
   auto options = std::make_shared<SimBenchOptions>();
   auto json_path = std::make_shared<std::string>();
-  CLI::App* sim = bench->add_subcommand("sim", "TLED tetrahedron-steps per second on Gmsh boxes");
-  sim->add_option("--mode", options->mode, "forward (combined arrives with inverse simulation)")
-      ->check(CLI::IsMember({"forward", "combined"}))
+  CLI::App* sim = bench->add_subcommand("sim", "TLED tetrahedron-steps per second on Gmsh boxes (forward) or the phantom (inverse + forward)");
+  sim->add_option("--mode", options->modes,
+                  "forward (solver on boxes) and/or combined, volume, surface (inverse + forward on the phantom)")
+      ->delimiter(',')
+      ->check(CLI::IsMember({"forward", "combined", "volume", "surface"}))
       ->capture_default_str();
-  sim->add_option("--tets", options->tets, "Target mesh sizes")->delimiter(',')->capture_default_str();
+  CLI::Option* tets =
+      sim->add_option("--tets", options->tets, "Target mesh sizes (phantom modes: 8000, the default phantom's)")
+          ->delimiter(',')
+          ->capture_default_str();
   sim->add_option("--threads", options->threads, "Thread counts")->delimiter(',')->capture_default_str();
   sim->add_option("--precision", options->precisions, "float and/or double")
       ->delimiter(',')
@@ -57,7 +63,9 @@ void AddBenchCommand(CLI::App& app) {
   sim->add_option("--repeats", options->repeats, "Timed repeats; the median is reported")->capture_default_str();
   sim->add_option("--seconds", options->simulated_per_repeat_s, "Simulated seconds per repeat")->capture_default_str();
   sim->add_option("--json", *json_path, "Save the records to this JSON file");
-  sim->callback([options, json_path] {
+  sim->callback([options, json_path, tets] {
+    const bool forward = std::find(options->modes.begin(), options->modes.end(), "forward") != options->modes.end();
+    if (tets->count() == 0 && !forward) options->tets = {8000};
     PrintMachine();
     const std::vector<SimBenchRecord> records = RunSimBench(*options, true);
     std::fputs(SimBenchTable(records).c_str(), stdout);

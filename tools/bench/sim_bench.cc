@@ -9,10 +9,13 @@
 #include <tbb/global_control.h>
 
 #include "io/gmsh_mesher.h"
+#include "sim/coupled_simulation.h"
 #include "sim/error.h"
 #include "sim/tled_solver.h"
 #include "tools/json_text.h"
 #include "tools/machine_info.h"
+#include "tools/phantom/heart_motion.h"
+#include "tools/phantom/phantom_spec.h"
 
 namespace dg::tools {
 namespace {
@@ -39,6 +42,86 @@ BenchProblem MakeBenchProblem(int target_tets) {
   return problem;
 }
 
+// The phantom's mesh and motion as `dynaguide phantom` makes them.
+struct PhantomProblem {
+  sim::TetMesh mesh;
+  sim::Material material;
+  std::shared_ptr<const sim::CyclicMotionModel> motion;
+  std::vector<int> fixed_nodes, constrained_nodes;
+  sim::StabilityReport stability;
+};
+
+PhantomProblem MakePhantomProblem(int target_tets) {
+  phantom::PhantomSpec spec = phantom::PresetSpec("default");
+  spec.tets = target_tets;
+  PhantomProblem problem;
+  problem.mesh = io::MeshTruncatedEllipsoid({spec.semi_axes_m, spec.centre_height_m, spec.tets});
+  problem.material = spec.material;
+  const phantom::HeartMotion heart(spec, spec.period_s());
+  const int N = problem.mesh.num_nodes();
+  std::vector<double> displacement;
+  for (int k = 0; k < spec.phases; ++k) {
+    const phantom::MotionState state = phantom::HeartMotion::NominalState(double(k) / spec.phases);
+    for (int a = 0; a < N; ++a) {
+      const Eigen::Vector3d u = heart.Deform(problem.mesh.X_m.col(a), state) - problem.mesh.X_m.col(a);
+      displacement.insert(displacement.end(), u.data(), u.data() + 3);
+    }
+  }
+  problem.motion = std::make_shared<const sim::CyclicMotionModel>(displacement, spec.phases, 3 * N, spec.period_s());
+  problem.fixed_nodes = problem.mesh.node_sets.at("base");
+  int free_surface = 0;
+  for (int a : problem.mesh.node_sets.at("surface")) {
+    if (std::binary_search(problem.fixed_nodes.begin(), problem.fixed_nodes.end(), a)) continue;
+    if (free_surface++ % 3 == 0) problem.constrained_nodes.push_back(a);
+  }
+  std::vector<int> fixed_dofs;
+  for (int a : problem.fixed_nodes) {
+    for (int i = 0; i < 3; ++i) fixed_dofs.push_back(3 * a + i);
+  }
+  problem.stability = sim::EstimateStability(problem.mesh, problem.material, fixed_dofs);
+  return problem;
+}
+
+int StepsPerRepeat(const SimBenchOptions& options) {
+  return std::max(1, static_cast<int>(std::lround(options.simulated_per_repeat_s / options.dt_s)));
+}
+
+// Times `repeats` calls of advance(steps) after a warm-up; sorted tet-steps per second.
+template <typename Advance>
+std::vector<double> TimeRepeats(int tets, int steps, int repeats, Advance advance) {
+  advance(steps / 4 + 1);  // warm caches and threads
+  std::vector<double> rates;
+  for (int r = 0; r < repeats; ++r) {
+    const auto start = std::chrono::steady_clock::now();
+    advance(steps);
+    const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    rates.push_back(double(tets) * steps / wall_s);
+  }
+  std::sort(rates.begin(), rates.end());
+  return rates;
+}
+
+template <typename T>
+SimBenchRecord MakeRecord(const sim::TetMesh& mesh, int threads, const std::string& mode,
+                          const std::vector<double>& rates, const sim::StabilityReport& stability,
+                          const SimBenchOptions& options) {
+  SimBenchRecord record;
+  record.mesh_tets = mesh.num_tets();
+  record.mesh_nodes = mesh.num_nodes();
+  record.threads = threads;
+  record.precision = sizeof(T) == 4 ? "float" : "double";
+  record.mode = mode;
+  record.tet_steps_per_s = rates[rates.size() / 2];
+  record.tet_steps_per_s_min = rates.front();
+  record.tet_steps_per_s_max = rates.back();
+  record.realtime_factor = record.tet_steps_per_s / mesh.num_tets() * options.dt_s;
+  record.dt_s = options.dt_s;
+  record.dt_critical_s = stability.dt_critical_s;
+  record.steps_per_repeat = StepsPerRepeat(options);
+  record.repeats = options.repeats;
+  return record;
+}
+
 template <typename T>
 SimBenchRecord Measure(const BenchProblem& problem, int threads, const SimBenchOptions& options) {
   tbb::global_control parallelism(tbb::global_control::max_allowed_parallelism, threads);
@@ -47,53 +130,82 @@ SimBenchRecord Measure(const BenchProblem& problem, int threads, const SimBenchO
   sim::TledSolver<T> solver(std::make_shared<const sim::TledModel<T>>(problem.mesh, sim::Material{}),
                             problem.conditions, solver_options, &problem.stability);
   const std::vector<double> targets(problem.conditions.prescribed_dofs.size(), -kPressDown_m);
-  const int steps = std::max(1, static_cast<int>(std::lround(options.simulated_per_repeat_s / options.dt_s)));
-  solver.Advance(steps / 4 + 1, targets);  // warm caches and threads
-  std::vector<double> rates;
-  for (int r = 0; r < options.repeats; ++r) {
-    const auto start = std::chrono::steady_clock::now();
-    solver.Advance(steps, targets);
-    const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    rates.push_back(double(problem.mesh.num_tets()) * steps * solver.substeps_per_step() / wall_s);
+  const std::vector<double> rates =
+      TimeRepeats(problem.mesh.num_tets(), StepsPerRepeat(options) * solver.substeps_per_step(), options.repeats,
+                  [&](int steps) { solver.Advance(steps / solver.substeps_per_step(), targets); });
+  return MakeRecord<T>(problem.mesh, threads, "forward", rates, problem.stability, options);
+}
+
+// The image-constrained simulation in one mode; the constrained nodes (none
+// in volume mode) follow the motion model, reaching it at the end of each advance.
+template <typename T>
+std::vector<double> MeasureCoupledRates(const PhantomProblem& problem, sim::SimulationMode mode, bool concurrent,
+                                        int threads, const SimBenchOptions& options) {
+  tbb::global_control parallelism(tbb::global_control::max_allowed_parallelism, threads);
+  sim::CoupledOptions coupled;
+  coupled.mode = mode;
+  coupled.solver.dt_s = options.dt_s;
+  coupled.concurrent = concurrent;
+  sim::CoupledSimulation<T> simulation(std::make_shared<const sim::TledModel<T>>(problem.mesh, problem.material),
+                                       problem.motion, problem.fixed_nodes, coupled, &problem.stability);
+  if (mode != sim::SimulationMode::kVolume) simulation.SetConstrainedNodes(problem.constrained_nodes);
+  std::vector<T> u(3 * size_t(problem.mesh.num_nodes()));
+  std::vector<double> targets;
+  return TimeRepeats(problem.mesh.num_tets(), StepsPerRepeat(options), options.repeats, [&](int steps) {
+    simulation.MotionAtStep(simulation.steps_taken() + steps, u);
+    targets.clear();
+    for (int a : simulation.constrained_nodes()) targets.insert(targets.end(), &u[3 * a], &u[3 * a] + 3);
+    simulation.Advance(steps, targets);
+  });
+}
+
+template <typename T>
+SimBenchRecord MeasureCoupled(const PhantomProblem& problem, const std::string& mode_name, int threads,
+                              const SimBenchOptions& options) {
+  const sim::SimulationMode mode = sim::ParseSimulationMode(mode_name);
+  SimBenchRecord record = MakeRecord<T>(problem.mesh, threads, mode_name,
+                                        MeasureCoupledRates<T>(problem, mode, true, threads, options),
+                                        problem.stability, options);
+  if (mode != sim::SimulationMode::kSurface) {
+    const std::vector<double> sequential = MeasureCoupledRates<T>(problem, mode, false, threads, options);
+    record.sequential_tet_steps_per_s = sequential[sequential.size() / 2];
+    record.concurrent_gain = record.tet_steps_per_s / record.sequential_tet_steps_per_s;
   }
-  std::sort(rates.begin(), rates.end());
-  SimBenchRecord record;
-  record.mesh_tets = problem.mesh.num_tets();
-  record.mesh_nodes = problem.mesh.num_nodes();
-  record.threads = threads;
-  record.precision = sizeof(T) == 4 ? "float" : "double";
-  record.mode = options.mode;
-  record.tet_steps_per_s = rates[rates.size() / 2];
-  record.tet_steps_per_s_min = rates.front();
-  record.tet_steps_per_s_max = rates.back();
-  record.realtime_factor = record.tet_steps_per_s / problem.mesh.num_tets() * options.dt_s;
-  record.dt_s = options.dt_s;
-  record.dt_critical_s = problem.stability.dt_critical_s;
-  record.steps_per_repeat = steps;
-  record.repeats = options.repeats;
   return record;
 }
 
 }  // namespace
 
 std::vector<SimBenchRecord> RunSimBench(const SimBenchOptions& options, bool progress) {
-  if (options.mode != "forward") {
-    throw Error("bench mode '" + options.mode + "' is not available yet", "dynaguide bench sim --mode",
-                "use --mode forward; combined (inverse + forward) arrives with the image-constrained simulation");
-  }
   if (options.repeats < 1) throw Error("--repeats must be at least 1", "dynaguide bench sim", "give e.g. 7");
   std::vector<SimBenchRecord> records;
-  for (int target : options.tets) {
-    const BenchProblem problem = MakeBenchProblem(target);
-    for (const std::string& precision : options.precisions) {
-      for (int threads : options.threads) {
-        records.push_back(precision == "float" ? Measure<float>(problem, threads, options)
-                                               : Measure<double>(problem, threads, options));
-        if (progress) {
-          const SimBenchRecord& r = records.back();
-          std::fprintf(stderr, "bench sim: %d tets, %s, %d thread%s: %.1f M tet-steps/s (median of %d)\n",
-                       r.mesh_tets, r.precision.c_str(), r.threads, r.threads > 1 ? "s" : "",
-                       r.tet_steps_per_s / 1e6, r.repeats);
+  auto report = [&] {
+    const SimBenchRecord& r = records.back();
+    if (!progress) return;
+    std::fprintf(stderr, "bench sim: %s, %d tets, %s, %d thread%s: %.1f M tet-steps/s (median of %d)\n",
+                 r.mode.c_str(), r.mesh_tets, r.precision.c_str(), r.threads, r.threads > 1 ? "s" : "",
+                 r.tet_steps_per_s / 1e6, r.repeats);
+  };
+  for (const std::string& mode : options.modes) {
+    if (mode != "forward") sim::ParseSimulationMode(mode);  // rejects an unknown mode before any work
+    for (int target : options.tets) {
+      if (mode == "forward") {
+        const BenchProblem problem = MakeBenchProblem(target);
+        for (const std::string& precision : options.precisions) {
+          for (int threads : options.threads) {
+            records.push_back(precision == "float" ? Measure<float>(problem, threads, options)
+                                                   : Measure<double>(problem, threads, options));
+            report();
+          }
+        }
+        continue;
+      }
+      const PhantomProblem problem = MakePhantomProblem(target);
+      for (const std::string& precision : options.precisions) {
+        for (int threads : options.threads) {
+          records.push_back(precision == "float" ? MeasureCoupled<float>(problem, mode, threads, options)
+                                                 : MeasureCoupled<double>(problem, mode, threads, options));
+          report();
         }
       }
     }
@@ -113,10 +225,10 @@ void WriteSimBenchJson(const std::string& path, const std::vector<SimBenchRecord
                   "  {\"mesh_tets\": %d, \"mesh_nodes\": %d, \"threads\": %d, \"precision\": %s, \"mode\": %s, "
                   "\"tet_steps_per_s\": %.6g, \"tet_steps_per_s_min\": %.6g, \"tet_steps_per_s_max\": %.6g, "
                   "\"realtime_factor\": %.6g, \"dt_s\": %.6g, \"dt_critical_s\": %.6g, \"steps_per_repeat\": %d, "
-                  "\"repeats\": %d, \"cpu\": %s, \"logical_cores\": %d, \"simd\": %s, \"compiler\": %s}%s\n",
+                  "\"repeats\": %d, \"sequential_tet_steps_per_s\": %.6g, \"concurrent_gain\": %.4g, \"cpu\": %s, \"logical_cores\": %d, \"simd\": %s, \"compiler\": %s}%s\n",
                   r.mesh_tets, r.mesh_nodes, r.threads, JsonQuoted(r.precision).c_str(), JsonQuoted(r.mode).c_str(), r.tet_steps_per_s,
                   r.tet_steps_per_s_min, r.tet_steps_per_s_max, r.realtime_factor, r.dt_s, r.dt_critical_s,
-                  r.steps_per_repeat, r.repeats, JsonQuoted(machine.cpu_model).c_str(), machine.logical_cores,
+                  r.steps_per_repeat, r.repeats, r.sequential_tet_steps_per_s, r.concurrent_gain, JsonQuoted(machine.cpu_model).c_str(), machine.logical_cores,
                   JsonQuoted(machine.simd).c_str(), JsonQuoted(machine.compiler).c_str(), i + 1 < records.size() ? "," : "");
     out << line;
   }
@@ -125,13 +237,17 @@ void WriteSimBenchJson(const std::string& path, const std::vector<SimBenchRecord
 
 std::string SimBenchTable(const std::vector<SimBenchRecord>& records) {
   std::string table =
-      "| tets | nodes | precision | threads | M tet-steps/s (median) | min-max | real-time factor | dt_cr ms |\n"
-      "|---:|---:|---|---:|---:|---:|---:|---:|\n";
+      "| mode | tets | nodes | precision | threads | M tet-steps/s (median) | min-max | real-time factor | "
+      "concurrent gain | dt_cr ms |\n"
+      "|---|---:|---:|---|---:|---:|---:|---:|---:|---:|\n";
   for (const SimBenchRecord& r : records) {
     char line[256];
-    std::snprintf(line, sizeof line, "| %d | %d | %s | %d | %.1f | %.1f-%.1f | %.2f | %.3f |\n", r.mesh_tets,
-                  r.mesh_nodes, r.precision.c_str(), r.threads, r.tet_steps_per_s / 1e6, r.tet_steps_per_s_min / 1e6,
-                  r.tet_steps_per_s_max / 1e6, r.realtime_factor, r.dt_critical_s * 1e3);
+    char gain[16] = "-";
+    if (r.concurrent_gain > 0) std::snprintf(gain, sizeof gain, "%.2f", r.concurrent_gain);
+    std::snprintf(line, sizeof line, "| %s | %d | %d | %s | %d | %.1f | %.1f-%.1f | %.2f | %s | %.3f |\n",
+                  r.mode.c_str(), r.mesh_tets, r.mesh_nodes, r.precision.c_str(), r.threads, r.tet_steps_per_s / 1e6,
+                  r.tet_steps_per_s_min / 1e6, r.tet_steps_per_s_max / 1e6, r.realtime_factor, gain,
+                  r.dt_critical_s * 1e3);
     table += line;
   }
   return table;
