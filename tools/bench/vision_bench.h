@@ -13,6 +13,10 @@ struct VisionBenchOptions {
 
 // One line of the saved table: the interface users script against (issue 4).
 // Times are per stereo frame, in milliseconds; parts are medians over frames.
+// ms_median and ms_p95 are of the frame's wall time in FrontEnd::Next, the
+// sum of the parts. As in the pipeline, frame j+1 is decoded while frame j is
+// rectified and tracked, so capture_ms is the wait for a decoded frame (the
+// decoding that tracking did not hide), not the decoding time itself.
 struct VisionBenchRecord {
   int threads = 0;
   int width = 0, height = 0;
