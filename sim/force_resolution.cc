@@ -27,6 +27,20 @@ void ForEachBlockChunk(const TledModel<T>& model, Body body) {
   });
 }
 
+// The edge matrix D = D0 + (u_j - u_0) of one lane: columns d1, d2, d3 from
+// corner 0, reference edges D0 ([edge][xyz] with lane stride) plus the
+// displacement differences of the corners' dofs n0..n3.
+template <typename T>
+struct EdgeMatrix {
+  EdgeMatrix(const T* D0, int stride, const T* u, int n0, int n1, int n2, int n3)
+      : d1x(D0[0 * stride] + (u[n1] - u[n0])), d1y(D0[1 * stride] + (u[n1 + 1] - u[n0 + 1])),
+        d1z(D0[2 * stride] + (u[n1 + 2] - u[n0 + 2])), d2x(D0[3 * stride] + (u[n2] - u[n0])),
+        d2y(D0[4 * stride] + (u[n2 + 1] - u[n0 + 1])), d2z(D0[5 * stride] + (u[n2 + 2] - u[n0 + 2])),
+        d3x(D0[6 * stride] + (u[n3] - u[n0])), d3y(D0[7 * stride] + (u[n3 + 1] - u[n0 + 1])),
+        d3z(D0[8 * stride] + (u[n3 + 2] - u[n0 + 2])) {}
+  T d1x, d1y, d1z, d2x, d2y, d2z, d3x, d3y, d3z;
+};
+
 // Weights of one block: q_c = D^-1 (r_c / n_c) for each corner c, with
 // D = D0 + (u_j - u_0) the edge matrix from corner 0 in the geometry X + u;
 // returns the block's smallest volume ratio det(D) / det(D0).
@@ -40,18 +54,15 @@ T ResolveBlock(const TledModel<T>& model, int b, const T* __restrict D0, const T
 #pragma GCC ivdep
   for (int l = 0; l < W; ++l) {
     const int n0 = 3 * nodes[l], n1 = 3 * nodes[W + l], n2 = 3 * nodes[2 * W + l], n3 = 3 * nodes[3 * W + l];
-    // Columns d1, d2, d3 of D.
-    const T d1x = D0[0 * W + l] + (u[n1] - u[n0]), d1y = D0[1 * W + l] + (u[n1 + 1] - u[n0 + 1]),
-            d1z = D0[2 * W + l] + (u[n1 + 2] - u[n0 + 2]);
-    const T d2x = D0[3 * W + l] + (u[n2] - u[n0]), d2y = D0[4 * W + l] + (u[n2 + 1] - u[n0 + 1]),
-            d2z = D0[5 * W + l] + (u[n2 + 2] - u[n0 + 2]);
-    const T d3x = D0[6 * W + l] + (u[n3] - u[n0]), d3y = D0[7 * W + l] + (u[n3 + 1] - u[n0 + 1]),
-            d3z = D0[8 * W + l] + (u[n3 + 2] - u[n0 + 2]);
+    const EdgeMatrix<T> D(D0 + l, W, u, n0, n1, n2, n3);
     // Rows of D^-1 times det(D): d2 x d3, d3 x d1, d1 x d2.
-    const T a0 = d2y * d3z - d2z * d3y, a1 = d2z * d3x - d2x * d3z, a2 = d2x * d3y - d2y * d3x;
-    const T b0 = d3y * d1z - d3z * d1y, b1 = d3z * d1x - d3x * d1z, b2 = d3x * d1y - d3y * d1x;
-    const T c0 = d1y * d2z - d1z * d2y, c1 = d1z * d2x - d1x * d2z, c2 = d1x * d2y - d1y * d2x;
-    const T det = d1x * a0 + d1y * a1 + d1z * a2;
+    const T a0 = D.d2y * D.d3z - D.d2z * D.d3y, a1 = D.d2z * D.d3x - D.d2x * D.d3z,
+            a2 = D.d2x * D.d3y - D.d2y * D.d3x;
+    const T b0 = D.d3y * D.d1z - D.d3z * D.d1y, b1 = D.d3z * D.d1x - D.d3x * D.d1z,
+            b2 = D.d3x * D.d1y - D.d3y * D.d1x;
+    const T c0 = D.d1y * D.d2z - D.d1z * D.d2y, c1 = D.d1z * D.d2x - D.d1x * D.d2z,
+            c2 = D.d1x * D.d2y - D.d1y * D.d2x;
+    const T det = D.d1x * a0 + D.d1y * a1 + D.d1z * a2;
     const bool real = V0[l] > 0;  // padding lanes have no volume and no incidences
     ratio[l] = real ? det / (6 * V0[l]) : T(1);
     const T inv_det = real ? T(1) / det : T(0);
@@ -81,19 +92,14 @@ void ApplyBlock(const TledModel<T>& model, int b, const T* __restrict D0, const 
 #pragma GCC ivdep
   for (int l = 0; l < W; ++l) {
     const int n0 = 3 * nodes[l], n1 = 3 * nodes[W + l], n2 = 3 * nodes[2 * W + l], n3 = 3 * nodes[3 * W + l];
-    const T d1x = D0[0 * W + l] + (u[n1] - u[n0]), d1y = D0[1 * W + l] + (u[n1 + 1] - u[n0 + 1]),
-            d1z = D0[2 * W + l] + (u[n1 + 2] - u[n0 + 2]);
-    const T d2x = D0[3 * W + l] + (u[n2] - u[n0]), d2y = D0[4 * W + l] + (u[n2 + 1] - u[n0 + 1]),
-            d2z = D0[5 * W + l] + (u[n2 + 2] - u[n0 + 2]);
-    const T d3x = D0[6 * W + l] + (u[n3] - u[n0]), d3y = D0[7 * W + l] + (u[n3 + 1] - u[n0 + 1]),
-            d3z = D0[8 * W + l] + (u[n3 + 2] - u[n0 + 2]);
+    const EdgeMatrix<T> D(D0 + l, W, u, n0, n1, n2, n3);
     for (int c = 0; c < 4; ++c) {
       const T* qc = q + size_t(c) * 3 * W;
       const T q1 = qc[0 * W + l], q2 = qc[1 * W + l], q3 = qc[2 * W + l];
       T* fc = f + size_t(c) * 3 * W;
-      fc[0 * W + l] = d1x * q1 + d2x * q2 + d3x * q3;
-      fc[1 * W + l] = d1y * q1 + d2y * q2 + d3y * q3;
-      fc[2 * W + l] = d1z * q1 + d2z * q2 + d3z * q3;
+      fc[0 * W + l] = D.d1x * q1 + D.d2x * q2 + D.d3x * q3;
+      fc[1 * W + l] = D.d1y * q1 + D.d2y * q2 + D.d3y * q3;
+      fc[2 * W + l] = D.d1z * q1 + D.d2z * q2 + D.d3z * q3;
     }
   }
 }
