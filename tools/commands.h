@@ -12,6 +12,7 @@ void AddSimCommand(CLI::App& app);
 void AddBenchCommand(CLI::App& app);
 void AddCalibrateCommand(CLI::App& app);
 void AddMeshCommand(CLI::App& app);
+void AddOverlayCommand(CLI::App& app);
 void AddPhantomCommand(CLI::App& app);
 void AddReportCommand(CLI::App& app);
 void AddRunCommand(CLI::App& app);

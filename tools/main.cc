@@ -14,6 +14,7 @@ int main(int argc, char** argv) {
   dg::tools::AddBenchCommand(app);
   dg::tools::AddCalibrateCommand(app);
   dg::tools::AddMeshCommand(app);
+  dg::tools::AddOverlayCommand(app);
   dg::tools::AddPhantomCommand(app);
   dg::tools::AddRunCommand(app);
   dg::tools::AddReportCommand(app);

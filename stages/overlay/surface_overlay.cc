@@ -1,0 +1,107 @@
+#include "stages/overlay/surface_overlay.h"
+
+#include "sim/error.h"
+
+namespace dg::stages::overlay {
+namespace {
+
+Eigen::Matrix3Xd AllVertices(const std::vector<OverlaySurface>& surfaces) {
+  Eigen::Index count = 0;
+  for (const OverlaySurface& s : surfaces) count += s.mesh.num_vertices();
+  Eigen::Matrix3Xd vertices(3, count);
+  Eigen::Index first = 0;
+  for (const OverlaySurface& s : surfaces) {
+    vertices.middleCols(first, s.mesh.num_vertices()) = s.mesh.vertices_m;
+    first += s.mesh.num_vertices();
+  }
+  return vertices;
+}
+
+// Area-weighted vertex normals (the rasterizer normalises per sample).
+void AccumulateNormals(const Eigen::Matrix3Xf& positions, const Eigen::Matrix3Xi& triangles, Eigen::Matrix3Xf* normals) {
+  normals->setZero(3, positions.cols());
+  for (Eigen::Index t = 0; t < triangles.cols(); ++t) {
+    const Eigen::Vector3f a = positions.col(triangles(0, t));
+    const Eigen::Vector3f area_normal = (positions.col(triangles(1, t)) - a).cross(positions.col(triangles(2, t)) - a);
+    for (int k = 0; k < 3; ++k) normals->col(triangles(k, t)) += area_normal;
+  }
+}
+
+const std::vector<OverlaySurface>& CheckedSurfaces(const std::vector<OverlaySurface>& surfaces) {
+  if (surfaces.empty()) throw Error("no surfaces to draw", "overlay", "name at least one overlay mesh in the scene");
+  for (const OverlaySurface& s : surfaces) {
+    const std::string where = "overlay surface " + s.name;
+    if (!s.texture.empty() && s.texture.type() != CV_8UC3)
+      throw Error("the texture is not 8-bit, 3-channel", where, "save the texture as an 8-bit colour PNG");
+    if (!s.texture.empty() && s.mesh.uvs.cols() != s.mesh.num_vertices())
+      throw Error("a textured surface without per-vertex texture coordinates", where,
+                  "export the mesh with texture coordinates (OBJ vt, PLY s t)");
+  }
+  return surfaces;
+}
+
+const SurfaceOverlay::Options& CheckedOptions(const SurfaceOverlay::Options& options) {
+  if (const std::string problem = options.Validate(); !problem.empty())
+    throw Error("invalid surface overlay options: " + problem, "overlay options", "correct the scene's overlay settings");
+  return options;
+}
+
+}  // namespace
+
+std::string SurfaceOverlay::Options::Validate() const {
+  if (!(opacity >= 0 && opacity <= 1)) return "opacity must be within [0, 1]";
+  if (supersample < 1 || supersample > 4) return "supersample must be within [1, 4]";
+  return {};
+}
+
+SurfaceOverlay::SurfaceOverlay(const Options& options, const sim::TetMesh& mesh, std::vector<OverlaySurface> surfaces,
+                               const LensView& view)
+    : options_(CheckedOptions(options)),
+      surfaces_(std::move(surfaces)),
+      embedding_(mesh, AllVertices(CheckedSurfaces(surfaces_))),
+      view_(view),
+      rasterizer_(view.pinhole(), options.supersample) {
+  Eigen::Index first = 0;
+  for (const OverlaySurface& s : surfaces_) {
+    first_vertex_.push_back(first);
+    first += s.mesh.num_vertices();
+    render::TriangleMesh drawn;
+    drawn.triangles = s.mesh.triangles;
+    if (!s.texture.empty()) {
+      drawn.uvs = s.mesh.uvs.cast<float>();
+      drawn.uvs.row(1) = 1 - drawn.uvs.row(1).array();  // the rasterizer's v runs down the image
+    }
+    drawn_.push_back(std::move(drawn));
+  }
+}
+
+OverlayLayer SurfaceOverlay::Process(const Eigen::Matrix3Xd& nodes_S, std::int64_t frame) {
+  if (nodes_S.cols() != embedding_.num_nodes())
+    throw Error("node positions for " + std::to_string(nodes_S.cols()) + " nodes, the mesh has " +
+                    std::to_string(embedding_.num_nodes()),
+                "overlay, frame " + std::to_string(frame), "pass the simulation mesh's current node positions");
+  embedding_.Rebuild(nodes_S, &vertices_S_);
+  view_.ToView(vertices_S_, &vertices_view_);
+  rasterizer_.Clear(Eigen::Vector3f::Zero());
+  for (size_t i = 0; i < surfaces_.size(); ++i) {
+    const OverlaySurface& surface = surfaces_[i];
+    render::TriangleMesh& drawn = drawn_[i];
+    drawn.positions_C = vertices_view_.middleCols(first_vertex_[i], surface.mesh.num_vertices());
+    if (options_.lit) AccumulateNormals(drawn.positions_C, drawn.triangles, &drawn.normals_C);
+    render::Material material;
+    material.texture = surface.texture.empty() ? nullptr : &surface.texture;
+    material.color = surface.color_bgr;
+    if (options_.lit) {
+      material.ambient = 0.25f;
+      material.diffuse = 0.75f;
+      material.specular = 0.3f;
+    } else {
+      material.ambient = 1.0f;
+      material.diffuse = 0.0f;
+    }
+    rasterizer_.Draw(drawn, material, render::Light{}, static_cast<int>(i));
+  }
+  return LayerFromRender(rasterizer_, options_.opacity, frame);
+}
+
+}  // namespace dg::stages::overlay
