@@ -4,6 +4,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "tools/bench/overlay_bench.h"
 #include "tools/bench/sim_bench.h"
 #include "tools/bench/vision_bench.h"
 #include "tools/commands.h"
@@ -32,6 +33,28 @@ void AddVisionBench(CLI::App& bench) {
     std::fputs(VisionBenchTable(records).c_str(), stdout);
     if (!json_path->empty()) {
       WriteVisionBenchJson(*json_path, records);
+      std::printf("saved %s\n", json_path->c_str());
+    }
+  });
+}
+
+void AddOverlayBench(CLI::App& bench) {
+  auto options = std::make_shared<OverlayBenchOptions>();
+  auto json_path = std::make_shared<std::string>();
+  CLI::App* command = bench.add_subcommand("overlay", "Overlays (meshes, texture, CT volume) and compositing per frame on the phantom");
+  command->add_option("--threads", options->threads, "Thread counts")->delimiter(',')->capture_default_str();
+  command->add_option("--frames", options->frames, "Frames timed per overlay and thread count")->capture_default_str();
+  command->add_option("--seconds", options->duration_s, "Length of the generated phantom video")->capture_default_str();
+  command->add_option("--supersample", options->supersample, "Surface overlays' samples per pixel per axis")
+      ->capture_default_str();
+  command->add_option("--slice-spacing", options->slice_spacing_m, "Volume slice spacing, metres")->capture_default_str();
+  command->add_option("--json", *json_path, "Save the records to this JSON file");
+  command->callback([options, json_path] {
+    PrintMachine();
+    const std::vector<OverlayBenchRecord> records = RunOverlayBench(*options, true);
+    std::fputs(OverlayBenchTable(records).c_str(), stdout);
+    if (!json_path->empty()) {
+      WriteOverlayBenchJson(*json_path, records);
       std::printf("saved %s\n", json_path->c_str());
     }
   });
@@ -75,6 +98,7 @@ void AddBenchCommand(CLI::App& app) {
     }
   });
   AddVisionBench(*bench);
+  AddOverlayBench(*bench);
 }
 
 }  // namespace dg::tools
