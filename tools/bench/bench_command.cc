@@ -5,6 +5,7 @@
 #include <CLI/CLI.hpp>
 
 #include "tools/bench/overlay_bench.h"
+#include "tools/bench/pipeline_bench.h"
 #include "tools/bench/sim_bench.h"
 #include "tools/bench/vision_bench.h"
 #include "tools/commands.h"
@@ -60,6 +61,29 @@ void AddOverlayBench(CLI::App& bench) {
   });
 }
 
+void AddPipelineBench(CLI::App& bench) {
+  auto options = std::make_shared<PipelineBenchOptions>();
+  auto json_path = std::make_shared<std::string>();
+  CLI::App* command =
+      bench.add_subcommand("pipeline", "The front-end graph offline: throughput, latency, overhead against a plain loop");
+  command->add_option("scene", options->scene, "scene.yaml (default: the built-in default phantom)");
+  command->add_option("--threads", options->threads, "Thread counts")->delimiter(',')->capture_default_str();
+  command->add_option("--repeats", options->repeats, "Runs per configuration; the median is reported")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  command->add_option("--frames", options->frames, "Frames per run (0: the whole recording)")->capture_default_str();
+  command->add_option("--json", *json_path, "Save the records to this JSON file");
+  command->callback([options, json_path] {
+    PrintMachine();
+    const std::vector<PipelineBenchRecord> records = RunPipelineBench(*options, true);
+    std::fputs(PipelineBenchTable(records).c_str(), stdout);
+    if (!json_path->empty()) {
+      WritePipelineBenchJson(*json_path, records);
+      std::printf("saved %s\n", json_path->c_str());
+    }
+  });
+}
+
 }  // namespace
 
 void AddBenchCommand(CLI::App& app) {
@@ -99,6 +123,7 @@ void AddBenchCommand(CLI::App& app) {
   });
   AddVisionBench(*bench);
   AddOverlayBench(*bench);
+  AddPipelineBench(*bench);
 }
 
 }  // namespace dg::tools

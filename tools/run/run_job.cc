@@ -91,6 +91,7 @@ RunOutcome RunScene(const RunOptions& options) {
   log.file().WriteAttribute("/", "frames", result.frames_done);
   log.file().WriteAttribute("/", "frames_dropped", result.frames_dropped);
   log.file().WriteAttribute("/", "wall_s", result.wall_s);
+  log.file().WriteAttribute("/", "video_frames_dropped", outcome.video_frames_dropped);
   log.Finish(result.complete, result.error);
   if (!result.complete) {
     throw Error(result.error, outcome.log_path,

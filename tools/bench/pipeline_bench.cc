@@ -1,0 +1,118 @@
+#include "tools/bench/pipeline_bench.h"
+
+#include <algorithm>
+#include <cstdio>
+#include <fstream>
+
+#include <tbb/global_control.h>
+
+#include "io/scene.h"
+#include "pipeline/scene_graph.h"
+#include "sim/error.h"
+#include "tools/json_text.h"
+#include "tools/machine_info.h"
+#include "tools/run/default_scene.h"
+
+namespace dg::tools {
+namespace {
+
+// Keeps the timings in memory: the benchmark measures the graph, not the disk.
+class TimingSink final : public pipeline::GraphSink {
+ public:
+  void Consume(const pipeline::FramePacket&) override {}
+  void RecordTimings(std::span<const pipeline::StageTiming> timings) override {
+    rows.insert(rows.end(), timings.begin(), timings.end());
+  }
+  void RecordDrop(std::int64_t, std::int64_t) override {}
+  std::vector<pipeline::StageTiming> rows;
+};
+
+pipeline::RunStatistics RunOnce(const io::Scene& scene, const PipelineBenchOptions& options, bool graph) {
+  pipeline::GraphOptions graph_options;
+  if (options.frames > 0) graph_options.end_frame = options.frames;
+  const pipeline::SceneGraph built = pipeline::BuildSceneGraph(scene, graph_options);
+  TimingSink sink;
+  const pipeline::GraphRunResult result = graph ? built.graph->Run(sink) : built.graph->RunInline(sink);
+  if (!result.complete) throw Error(result.error, scene.path, "run `dynaguide run` on the scene to see the failure");
+  return pipeline::Summarize(sink.rows, built.graph->stage_names(), 0, result.wall_s, built.graph->source().fps(),
+                             true);
+}
+
+// The repeat of median wall time.
+pipeline::RunStatistics MedianRun(const io::Scene& scene, const PipelineBenchOptions& options, bool graph) {
+  std::vector<pipeline::RunStatistics> runs;
+  for (int r = 0; r < options.repeats; ++r) runs.push_back(RunOnce(scene, options, graph));
+  std::sort(runs.begin(), runs.end(), [](const auto& a, const auto& b) { return a.wall_s < b.wall_s; });
+  return runs[runs.size() / 2];
+}
+
+}  // namespace
+
+std::vector<PipelineBenchRecord> RunPipelineBench(const PipelineBenchOptions& options, bool progress) {
+  const io::Scene scene = io::ReadScene(options.scene.empty() ? DefaultScenePath(progress) : options.scene);
+  std::vector<PipelineBenchRecord> records;
+  double graph_1_thread_s = 0;
+  for (int threads : options.threads) {
+    tbb::global_control parallelism(tbb::global_control::max_allowed_parallelism, threads);
+    if (progress) std::fprintf(stderr, "bench pipeline: %d thread(s), %d repeats each\n", threads, options.repeats);
+    PipelineBenchRecord sequential{"sequential", threads, MedianRun(scene, options, false)};
+    PipelineBenchRecord graph{"graph", threads, MedianRun(scene, options, true)};
+    graph.overhead_pct = 100 * (graph.statistics.wall_s / sequential.statistics.wall_s - 1);
+    if (threads == 1) graph_1_thread_s = graph.statistics.wall_s;
+    if (graph_1_thread_s > 0) graph.speedup = graph_1_thread_s / graph.statistics.wall_s;
+    records.push_back(sequential);
+    records.push_back(graph);
+  }
+  return records;
+}
+
+std::string PipelineBenchTable(const std::vector<PipelineBenchRecord>& records) {
+  std::string table =
+      "| threads | mode | frames | frames/s | real-time factor | latency median / p95 ms | overhead | speed-up |\n"
+      "|---:|---|---:|---:|---:|---:|---:|---:|\n";
+  for (const PipelineBenchRecord& r : records) {
+    char overhead[32] = "", speedup[32] = "";
+    if (r.mode == "graph") {
+      std::snprintf(overhead, sizeof overhead, "%+.1f%%", r.overhead_pct);
+      std::snprintf(speedup, sizeof speedup, "%.2fx", r.speedup);
+    }
+    char line[256];
+    std::snprintf(line, sizeof line, "| %d | %s | %lld | %.1f | %.2f | %.1f / %.1f | %s | %s |\n", r.threads,
+                  r.mode.c_str(), static_cast<long long>(r.statistics.frames), r.statistics.frames_per_s,
+                  r.statistics.realtime_factor, r.statistics.latency_median_ms, r.statistics.latency_p95_ms, overhead,
+                  speedup);
+    table += line;
+  }
+  return table;
+}
+
+void WritePipelineBenchJson(const std::string& path, const std::vector<PipelineBenchRecord>& records) {
+  std::ofstream out(path);
+  if (!out) throw Error("cannot write benchmark results", path, "check the directory exists and is writable");
+  const MachineInfo machine = ReadMachineInfo();
+  out << "[\n";
+  for (size_t i = 0; i < records.size(); ++i) {
+    const PipelineBenchRecord& r = records[i];
+    const pipeline::RunStatistics& s = r.statistics;
+    std::string stages;
+    for (const pipeline::StageStatistics& stage : s.stages) {
+      char entry[160];
+      std::snprintf(entry, sizeof entry, "%s%s: {\"median_ms\": %.4g, \"p95_ms\": %.4g}", stages.empty() ? "" : ", ",
+                    JsonQuoted(stage.name).c_str(), stage.median_ms, stage.p95_ms);
+      stages += entry;
+    }
+    char line[2048];
+    std::snprintf(line, sizeof line,
+                  "  {\"threads\": %d, \"mode\": %s, \"frames\": %lld, \"fps\": %.4g, \"realtime_factor\": %.4g, "
+                  "\"latency_ms_median\": %.4g, \"latency_ms_p95\": %.4g, \"overhead_pct\": %.3g, \"speedup\": %.3g, "
+                  "\"stages\": {%s}, \"cpu\": %s, \"logical_cores\": %d, \"simd\": %s, \"compiler\": %s}%s\n",
+                  r.threads, JsonQuoted(r.mode).c_str(), static_cast<long long>(s.frames), s.frames_per_s,
+                  s.realtime_factor, s.latency_median_ms, s.latency_p95_ms, r.overhead_pct, r.speedup, stages.c_str(),
+                  JsonQuoted(machine.cpu_model).c_str(), machine.logical_cores, JsonQuoted(machine.simd).c_str(),
+                  JsonQuoted(machine.compiler).c_str(), i + 1 < records.size() ? "," : "");
+    out << line;
+  }
+  out << "]\n";
+}
+
+}  // namespace dg::tools
