@@ -146,6 +146,10 @@ class StageGraph::Runner {
     flow::make_edge(*sink_node_, free_);
   }
 
+  // Tasks the nodes spawned on their own (a buffer forwarding to a new
+  // successor) finish before the nodes are destroyed.
+  ~Runner() { graph_.wait_for_all(); }
+
   GraphRunResult Run() {
     start_ = std::chrono::steady_clock::now();
     if (SkipToFirstFrame()) {

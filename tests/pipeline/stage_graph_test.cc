@@ -3,6 +3,7 @@
 // stage, and built with exactly the stages a scene needs.
 #include "pipeline/stage_graph.h"
 
+#include <array>
 #include <atomic>
 #include <chrono>
 #include <fstream>
@@ -173,6 +174,27 @@ TEST_CASE("graph: offline runs are lossless and ordered on 1 and 2 threads", "[p
     REQUIRE(outcome.sink.timing_rows == static_cast<std::size_t>(frames) * 4);  // capture, jitter, recorder, sink
     REQUIRE(max_in_flight.load() <= GraphOptions{}.max_in_flight);
   }
+}
+
+// The reference the benchmark measures the graph's overhead against: the
+// same stages in a plain loop produce the same tracks, frame for frame.
+TEST_CASE("graph: the inline run tracks exactly as the graph does", "[pipeline][integration]") {
+  struct TrackCounts final : GraphSink {
+    void Consume(const FramePacket& packet) override {
+      std::int64_t id_sum = 0;
+      for (const stages::TrackedPoint& p : packet.tracks.points) id_sum += p.id;
+      tracks.push_back({packet.index, static_cast<std::int64_t>(packet.tracks.points.size()), id_sum});
+    }
+    void RecordTimings(std::span<const StageTiming>) override {}
+    void RecordDrop(std::int64_t, std::int64_t) override {}
+    std::vector<std::array<std::int64_t, 3>> tracks;  // frame, points, sum of ids
+  } graph_sink, inline_sink;
+  const io::Scene scene = TinyScene();
+  REQUIRE(BuildSceneGraph(scene, {}).graph->Run(graph_sink).complete);
+  REQUIRE(BuildSceneGraph(scene, {}).graph->RunInline(inline_sink).complete);
+  REQUIRE(graph_sink.tracks.size() == static_cast<size_t>(scene.video.frames));
+  REQUIRE(graph_sink.tracks[5][1] > 10);
+  REQUIRE(inline_sink.tracks == graph_sink.tracks);
 }
 
 TEST_CASE("graph: a frame range streams only those frames", "[pipeline][integration]") {
