@@ -16,10 +16,13 @@
 namespace dg::io {
 namespace {
 
+// A file in a folder of this process's own (test processes run concurrently), made empty first.
 std::string OutputPath(const std::string& name) {
-  const std::string path = std::string(DG_BINARY_DIR) + "/" + name;
-  std::filesystem::remove(path);
-  return path;
+  const std::filesystem::path dir =
+      std::filesystem::temp_directory_path() / ("dg_h5_table_test_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  std::filesystem::remove(dir / name);
+  return (dir / name).string();
 }
 
 // One dataset as the plain HDF5 C API sees it, independently of io/.

@@ -132,14 +132,16 @@ TEST_CASE("track: a single image pair with a calibration, and an empty frame ran
 // A run that dies part-way (here a process that exits without finishing its
 // table) leaves a readable file with every frame it added, marked incomplete.
 TEST_CASE("track: an interrupted run leaves its frames readable, marked incomplete", "[tools][integration]") {
-  FrontEndInput input;
-  input.scene = TinyScene() + "/scene.yaml";
-  FrontEnd front_end(input);
   std::vector<FrontEndFrame> frames;
   std::size_t rows = 0;
-  for (int i = 0; i < 4; ++i) {
-    frames.push_back(*front_end.Next());
-    rows += frames.back().tracks.points.size();
+  {  // closed before the fork: no decoding task still running
+    FrontEndInput input;
+    input.scene = TinyScene() + "/scene.yaml";
+    FrontEnd front_end(input);
+    for (int i = 0; i < 4; ++i) {
+      frames.push_back(*front_end.Next());
+      rows += frames.back().tracks.points.size();
+    }
   }
   const std::string path = TinyScene() + "/interrupted.h5";
   // The child only writes (no TBB after fork): the tracks were computed here.
