@@ -17,5 +17,6 @@ void AddPhantomCommand(CLI::App& app);
 void AddReportCommand(CLI::App& app);
 void AddRunCommand(CLI::App& app);
 void AddTrackCommand(CLI::App& app);
+void AddRegisterCommand(CLI::App& app);
 
 }  // namespace dg::tools

@@ -19,6 +19,7 @@ int main(int argc, char** argv) {
   dg::tools::AddRunCommand(app);
   dg::tools::AddReportCommand(app);
   dg::tools::AddTrackCommand(app);
+  dg::tools::AddRegisterCommand(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -1,0 +1,96 @@
+#include "tools/register/video_fiducials.h"
+
+#include <cmath>
+#include <fstream>
+#include <sstream>
+
+#include <opencv2/imgproc.hpp>
+
+#include "io/calibration.h"
+#include "sim/error.h"
+#include "stages/capture.h"
+#include "stages/rectify.h"
+#include "stages/register/registration_stage.h"
+#include "stages/track/fiducial_tracker.h"
+#include "stages/track/triangulator.h"
+
+namespace dg::tools {
+namespace {
+
+// Endoscopic fiducials lie a few centimetres away: the stereo search's depth range.
+constexpr double kNear_m = 0.03, kFar_m = 0.30;
+
+cv::Mat Grey(const cv::Mat& image) {
+  if (image.channels() == 1) return image;
+  cv::Mat grey;
+  cv::cvtColor(image, grey, cv::COLOR_BGR2GRAY);
+  return grey;
+}
+
+}  // namespace
+
+stages::FiducialTracks TrackFiducialsInVideo(const io::Scene& scene, const std::vector<Eigen::Vector2d>& first_uv_left_px,
+                                             double window_s) {
+  stages::CaptureStage::Options capture_options;
+  capture_options.left_path = scene.video.left;
+  capture_options.right_path = scene.video.right;
+  capture_options.fps = scene.video.fps;
+  stages::CaptureStage capture(capture_options);
+  io::StereoCalibration calibration = io::ReadStereoCalibration(scene.calibration);
+  const stages::RectifyStage rectify(stages::RectifyStage::Options{}, calibration);
+  calibration.rectification = rectify.rectification();
+  const stages::Triangulator geometry(calibration);
+
+  std::vector<cv::Point2f> start;
+  for (size_t i = 0; i < first_uv_left_px.size(); ++i) {
+    Eigen::Vector2d uv_R;
+    if (!geometry.LeftToRectified(first_uv_left_px[i], &uv_R)) {
+      throw Error("fiducial " + std::to_string(i) + "'s first-frame pixel is outside the calibrated field", scene.path,
+                  "give the fiducial's pixel in the first left frame");
+    }
+    start.emplace_back(static_cast<float>(uv_R.x()), static_cast<float>(uv_R.y()));
+  }
+  stages::FiducialTracker::Options options;
+  options.stereo.min_disparity_px = std::max(0.0, std::floor(geometry.DisparityAtDepth(kFar_m)));
+  options.stereo.max_disparity_px = std::ceil(geometry.DisparityAtDepth(kNear_m));
+  stages::FiducialTracker tracker(options, start);
+
+  stages::FiducialTracks tracks;
+  while (std::optional<stages::StereoFrame> frame = capture.Next()) {
+    // Frames starting within the window (to a microsecond: periods are given rounded).
+    if (!tracks.t_s.empty() && frame->t_s - tracks.t_s.front() >= window_s - 1e-6) break;
+    frame->left = Grey(frame->left);
+    frame->right = Grey(frame->right);
+    const stages::RectifiedPair pair = rectify.Process(*frame);
+    std::vector<stages::FiducialSighting> sightings;
+    for (const stages::FiducialObservation& seen : tracker.Process(pair.left, pair.right)) {
+      sightings.push_back(stages::SightingFromRectified(seen, geometry));
+    }
+    tracks.t_s.push_back(frame->t_s);
+    tracks.frames.push_back(std::move(sightings));
+  }
+  return tracks;
+}
+
+std::vector<Eigen::Vector2d> ReadFiducialPixels(const std::string& path) {
+  std::ifstream file(path);
+  if (!file) throw Error("cannot read the fiducial pixels", path, "give a text file of u,v lines");
+  std::vector<Eigen::Vector2d> uv;
+  std::string line;
+  for (int number = 1; std::getline(file, line); ++number) {
+    if (line.find_first_not_of(" \t\r") == std::string::npos || line[line.find_first_not_of(" \t")] == '#') continue;
+    for (char& c : line) c = c == ',' ? ' ' : c;
+    std::istringstream fields(line);
+    double u, v;
+    std::string rest;
+    if (!(fields >> u >> v) || (fields >> rest) || !std::isfinite(u) || !std::isfinite(v)) {
+      throw Error("expected two numbers u,v", path + ":" + std::to_string(number),
+                  "write one fiducial per line: its pixel in the first left frame");
+    }
+    uv.emplace_back(u, v);
+  }
+  if (uv.empty()) throw Error("no fiducial pixels", path, "write one u,v line per fiducial, in the scan's order");
+  return uv;
+}
+
+}  // namespace dg::tools

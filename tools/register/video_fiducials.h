@@ -1,0 +1,28 @@
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "io/scene.h"
+#include "stages/register/registration.h"
+
+namespace dg::tools {
+
+// The fiducials followed through a scene's stereo video (capture, grey,
+// rectification, FiducialTracker), from their pixels in the first left frame
+// (original, distorted), over the frames that start within `window_s`.
+// Sightings are in original pixels, in the order of first_uv_left_px.
+// @throws dg::Error for unreadable video or calibration, or a first position
+//   outside the calibrated field.
+stages::FiducialTracks TrackFiducialsInVideo(const io::Scene& scene, const std::vector<Eigen::Vector2d>& first_uv_left_px,
+                                             double window_s);
+
+// A user's first-frame fiducial pixels: one "u,v" (or "u v") line per
+// fiducial, in the scan's fiducial order, in the first left frame's original
+// pixels; lines starting with # are comments.
+// @throws dg::Error naming the file and line of a malformed line, or no fiducials.
+std::vector<Eigen::Vector2d> ReadFiducialPixels(const std::string& path);
+
+}  // namespace dg::tools
