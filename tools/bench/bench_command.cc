@@ -6,6 +6,7 @@
 
 #include "tools/bench/overlay_bench.h"
 #include "tools/bench/pipeline_bench.h"
+#include "tools/bench/register_bench.h"
 #include "tools/bench/sim_bench.h"
 #include "tools/bench/vision_bench.h"
 #include "tools/commands.h"
@@ -56,6 +57,26 @@ void AddOverlayBench(CLI::App& bench) {
     std::fputs(OverlayBenchTable(records).c_str(), stdout);
     if (!json_path->empty()) {
       WriteOverlayBenchJson(*json_path, records);
+      std::printf("saved %s\n", json_path->c_str());
+    }
+  });
+}
+
+void AddRegisterBench(CLI::App& bench) {
+  auto options = std::make_shared<RegisterBenchOptions>();
+  auto json_path = std::make_shared<std::string>();
+  CLI::App* command = bench.add_subcommand("register", "Spatiotemporal registration (search and refinement) on the phantom");
+  command->add_option("--threads", options->threads, "Thread counts")->delimiter(',')->capture_default_str();
+  command->add_option("--repeats", options->repeats, "Timed registrations; the median is reported")->capture_default_str();
+  command->add_option("--fiducials", options->fiducials, "Fiducials in the phantom")->capture_default_str();
+  command->add_option("--cycles", options->cycles, "Cardiac cycles registered over")->capture_default_str();
+  command->add_option("--json", *json_path, "Save the records to this JSON file");
+  command->callback([options, json_path] {
+    PrintMachine();
+    const std::vector<RegisterBenchRecord> records = RunRegisterBench(*options, true);
+    std::fputs(RegisterBenchTable(records).c_str(), stdout);
+    if (!json_path->empty()) {
+      WriteRegisterBenchJson(*json_path, records);
       std::printf("saved %s\n", json_path->c_str());
     }
   });
@@ -122,6 +143,7 @@ void AddBenchCommand(CLI::App& app) {
     }
   });
   AddVisionBench(*bench);
+  AddRegisterBench(*bench);
   AddOverlayBench(*bench);
   AddPipelineBench(*bench);
 }
