@@ -9,13 +9,11 @@
 #include <regex>
 #include <sstream>
 
-#include <unistd.h>
-
 #include <catch2/catch.hpp>
 
 #include "io/registration_file.h"
 #include "sim/error.h"
-#include "tools/phantom/phantom_generator.h"
+#include "tests/support/tiny_phantom.h"
 #include "tools/register/register_run.h"
 
 namespace dg::tools {
@@ -26,19 +24,7 @@ using Catch::Matchers::Contains;
 
 // The tiny preset (160x120 video, 10 scan phases, 1.5 mm voxels), one second
 // long (1.5 cycles), generated once per test process.
-const std::string& TinyScene() {
-  static const std::string scene = [] {
-    const fs::path dir = fs::temp_directory_path() / ("dg_register_tool_test_" + std::to_string(::getpid()));
-    fs::remove_all(dir);
-    phantom::GeneratePhantom(phantom::PresetSpec("tiny"), dir.string(), false);
-    static const struct RemoveOnExit {
-      fs::path dir;
-      ~RemoveOnExit() { fs::remove_all(dir); }
-    } cleanup{dir};
-    return (dir / "scene.yaml").string();
-  }();
-  return scene;
-}
+std::string TinyScene() { return dg::testing::TinyPhantomDir() + "/scene.yaml"; }
 
 std::string Text(const std::string& path) {
   std::stringstream text;
