@@ -5,6 +5,8 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <unistd.h>
+
 #include <filesystem>
 
 #include <Eigen/Dense>
@@ -25,7 +27,9 @@ using Catch::Matchers::Contains;
 // The tiny preset, 1.4 s (two cycles at 90 bpm): one scene shared by the tests below.
 const std::string& TinyScene() {
   static const std::string dir = [] {
-    const std::string out = (fs::temp_directory_path() / "dg_fem_stage_test_tiny").string();
+    // One folder per process: the test cases run as concurrent processes.
+    const std::string out =
+        (fs::temp_directory_path() / ("dg_fem_stage_test_tiny_" + std::to_string(::getpid()))).string();
     fs::remove_all(out);
     tools::phantom::PhantomSpec spec = tools::phantom::PresetSpec("tiny");
     spec.duration_s = 1.4;

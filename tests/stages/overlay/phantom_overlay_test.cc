@@ -12,7 +12,7 @@
 #include "stages/overlay/overlay_error.h"
 #include "tools/overlay/overlay_snapshots.h"
 #include "tools/overlay/phantom_overlay_scene.h"
-#include "tools/phantom/phantom_generator.h"
+#include "tests/support/tiny_phantom.h"
 
 namespace dg::tools {
 namespace {
@@ -20,16 +20,8 @@ namespace {
 namespace fs = std::filesystem;
 namespace overlay = stages::overlay;
 
-// The tiny preset: one scene for the tests below, generated once per process.
-const std::string& TinyScene() {
-  static const std::string path = [] {
-    const std::string out = (fs::temp_directory_path() / "dg_overlay_test_tiny").string();
-    fs::remove_all(out);
-    phantom::GeneratePhantom(phantom::PresetSpec("tiny"), out, false);
-    return out + "/scene.yaml";
-  }();
-  return path;
-}
+// The tiny preset, generated once per test process (processes run concurrently).
+std::string TinyScene() { return dg::testing::TinyPhantomDir() + "/scene.yaml"; }
 
 // Only the embedding's piecewise-linear interpolation of the smooth motion
 // separates the overlay from the truth here (the simulation is bypassed).
