@@ -4,7 +4,6 @@
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
 #include <functional>
 
 #include <unistd.h>
@@ -13,8 +12,8 @@
 
 #include "sim/error.h"
 #include "stages/overlay/overlay_error.h"
+#include "tools/bench/bench_json.h"
 #include "tools/json_text.h"
-#include "tools/machine_info.h"
 #include "tools/overlay/phantom_overlay_scene.h"
 #include "tools/phantom/phantom_generator.h"
 #include "tools/phantom/phantom_spec.h"
@@ -106,23 +105,13 @@ std::vector<OverlayBenchRecord> RunOverlayBench(const OverlayBenchOptions& optio
 }
 
 void WriteOverlayBenchJson(const std::string& path, const std::vector<OverlayBenchRecord>& records) {
-  std::ofstream out(path);
-  if (!out) throw Error("cannot write benchmark results", path, "check the directory exists and is writable");
-  const MachineInfo machine = ReadMachineInfo();
-  out << "[\n";
-  for (size_t i = 0; i < records.size(); ++i) {
-    const OverlayBenchRecord& r = records[i];
-    char line[768];
-    std::snprintf(line, sizeof line,
-                  "  {\"overlay\": %s, \"threads\": %d, \"width\": %d, \"height\": %d, \"frames\": %d, "
-                  "\"ms_median\": %.4g, \"ms_p95\": %.4g, \"fps\": %.4g, \"cpu\": %s, \"logical_cores\": %d, "
-                  "\"simd\": %s, \"compiler\": %s}%s\n",
-                  JsonQuoted(r.overlay).c_str(), r.threads, r.width, r.height, r.frames, r.ms_median, r.ms_p95, r.fps,
-                  JsonQuoted(machine.cpu_model).c_str(), machine.logical_cores, JsonQuoted(machine.simd).c_str(),
-                  JsonQuoted(machine.compiler).c_str(), i + 1 < records.size() ? "," : "");
-    out << line;
+  std::vector<std::string> fields;
+  for (const OverlayBenchRecord& r : records) {
+    fields.push_back(Printed("\"overlay\": %s, \"threads\": %d, \"width\": %d, \"height\": %d, \"frames\": %d, "
+                             "\"ms_median\": %.4g, \"ms_p95\": %.4g, \"fps\": %.4g",
+                             JsonQuoted(r.overlay).c_str(), r.threads, r.width, r.height, r.frames, r.ms_median, r.ms_p95, r.fps));
   }
-  out << "]\n";
+  WriteBenchJson(path, fields);
 }
 
 std::string OverlayBenchTable(const std::vector<OverlayBenchRecord>& records) {

@@ -2,15 +2,14 @@
 
 #include <algorithm>
 #include <cstdio>
-#include <fstream>
 
 #include <tbb/global_control.h>
 
 #include "io/scene.h"
 #include "pipeline/scene_graph.h"
 #include "sim/error.h"
+#include "tools/bench/bench_json.h"
 #include "tools/json_text.h"
-#include "tools/machine_info.h"
 #include "tools/run/default_scene.h"
 
 namespace dg::tools {
@@ -87,32 +86,22 @@ std::string PipelineBenchTable(const std::vector<PipelineBenchRecord>& records) 
 }
 
 void WritePipelineBenchJson(const std::string& path, const std::vector<PipelineBenchRecord>& records) {
-  std::ofstream out(path);
-  if (!out) throw Error("cannot write benchmark results", path, "check the directory exists and is writable");
-  const MachineInfo machine = ReadMachineInfo();
-  out << "[\n";
-  for (size_t i = 0; i < records.size(); ++i) {
-    const PipelineBenchRecord& r = records[i];
+  std::vector<std::string> fields;
+  for (const PipelineBenchRecord& r : records) {
     const pipeline::RunStatistics& s = r.statistics;
     std::string stages;
     for (const pipeline::StageStatistics& stage : s.stages) {
-      char entry[160];
-      std::snprintf(entry, sizeof entry, "%s%s: {\"median_ms\": %.4g, \"p95_ms\": %.4g}", stages.empty() ? "" : ", ",
-                    JsonQuoted(stage.name).c_str(), stage.median_ms, stage.p95_ms);
-      stages += entry;
+      stages += Printed("%s%s: {\"median_ms\": %.4g, \"p95_ms\": %.4g}", stages.empty() ? "" : ", ",
+                        JsonQuoted(stage.name).c_str(), stage.median_ms, stage.p95_ms);
     }
-    char line[2048];
-    std::snprintf(line, sizeof line,
-                  "  {\"threads\": %d, \"mode\": %s, \"frames\": %lld, \"fps\": %.4g, \"realtime_factor\": %.4g, "
-                  "\"latency_ms_median\": %.4g, \"latency_ms_p95\": %.4g, \"overhead_pct\": %.3g, \"speedup\": %.3g, "
-                  "\"stages\": {%s}, \"cpu\": %s, \"logical_cores\": %d, \"simd\": %s, \"compiler\": %s}%s\n",
-                  r.threads, JsonQuoted(r.mode).c_str(), static_cast<long long>(s.frames), s.frames_per_s,
-                  s.realtime_factor, s.latency_median_ms, s.latency_p95_ms, r.overhead_pct, r.speedup, stages.c_str(),
-                  JsonQuoted(machine.cpu_model).c_str(), machine.logical_cores, JsonQuoted(machine.simd).c_str(),
-                  JsonQuoted(machine.compiler).c_str(), i + 1 < records.size() ? "," : "");
-    out << line;
+    fields.push_back(Printed("\"threads\": %d, \"mode\": %s, \"frames\": %lld, \"fps\": %.4g, \"realtime_factor\": %.4g, "
+                             "\"latency_ms_median\": %.4g, \"latency_ms_p95\": %.4g, \"overhead_pct\": %.3g, "
+                             "\"speedup\": %.3g, \"stages\": {%s}",
+                             r.threads, JsonQuoted(r.mode).c_str(), static_cast<long long>(s.frames), s.frames_per_s,
+                             s.realtime_factor, s.latency_median_ms, s.latency_p95_ms, r.overhead_pct, r.speedup,
+                             stages.c_str()));
   }
-  out << "]\n";
+  WriteBenchJson(path, fields);
 }
 
 }  // namespace dg::tools

@@ -5,7 +5,6 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
 
 #include <unistd.h>
 
@@ -17,8 +16,8 @@
 #include "sim/error.h"
 #include "stages/register/fiducial_motion.h"
 #include "stages/register/registration.h"
+#include "tools/bench/bench_json.h"
 #include "tools/json_text.h"
-#include "tools/machine_info.h"
 #include "tools/phantom/phantom_generator.h"
 #include "tools/phantom/phantom_spec.h"
 #include "tools/register/register_run.h"
@@ -101,26 +100,17 @@ std::vector<RegisterBenchRecord> RunRegisterBench(const RegisterBenchOptions& op
 }
 
 void WriteRegisterBenchJson(const std::string& path, const std::vector<RegisterBenchRecord>& records) {
-  std::ofstream out(path);
-  if (!out) throw Error("cannot write benchmark results", path, "check the directory exists and is writable");
-  const MachineInfo machine = ReadMachineInfo();
-  out << "[\n";
-  for (size_t i = 0; i < records.size(); ++i) {
-    const RegisterBenchRecord& r = records[i];
-    char line[1024];
-    std::snprintf(line, sizeof line,
-                  "  {\"threads\": %d, \"fiducials\": %d, \"frames\": %d, \"observations\": %d, \"cycles\": %.4g, "
-                  "\"ms_median\": %.4g, \"ms_max\": %.4g, \"rotation_error_deg\": %.4g, \"translation_error_mm\": %.4g, "
-                  "\"phase_shift_error_ms\": %.4g, \"residual_mm_left\": %.4g, \"residual_mm_right\": %.4g, "
-                  "\"cpu\": %s, \"logical_cores\": %d, \"simd\": %s, \"compiler\": %s}%s\n",
-                  r.threads, r.fiducials, r.frames, r.observations, r.cycles, r.ms_median, r.ms_max,
-                  r.rotation_error_deg, r.translation_error_mm, r.phase_shift_error_ms, r.residual_mm_left,
-                  r.residual_mm_right, JsonQuoted(machine.cpu_model).c_str(), machine.logical_cores,
-                  JsonQuoted(machine.simd).c_str(), JsonQuoted(machine.compiler).c_str(),
-                  i + 1 < records.size() ? "," : "");
-    out << line;
+  std::vector<std::string> fields;
+  for (const RegisterBenchRecord& r : records) {
+    fields.push_back(Printed("\"threads\": %d, \"fiducials\": %d, \"frames\": %d, \"observations\": %d, \"cycles\": %.4g, "
+                             "\"ms_median\": %.4g, \"ms_max\": %.4g, \"rotation_error_deg\": %.4g, "
+                             "\"translation_error_mm\": %.4g, \"phase_shift_error_ms\": %.4g, \"residual_mm_left\": %.4g, "
+                             "\"residual_mm_right\": %.4g",
+                             r.threads, r.fiducials, r.frames, r.observations, r.cycles, r.ms_median, r.ms_max,
+                             r.rotation_error_deg, r.translation_error_mm, r.phase_shift_error_ms, r.residual_mm_left,
+                             r.residual_mm_right));
   }
-  out << "]\n";
+  WriteBenchJson(path, fields);
 }
 
 std::string RegisterBenchTable(const std::vector<RegisterBenchRecord>& records) {

@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
-#include <fstream>
 #include <memory>
 
 #include <tbb/global_control.h>
@@ -12,8 +11,8 @@
 #include "sim/coupled_simulation.h"
 #include "sim/error.h"
 #include "sim/tled_solver.h"
+#include "tools/bench/bench_json.h"
 #include "tools/json_text.h"
-#include "tools/machine_info.h"
 #include "tools/phantom/heart_motion.h"
 #include "tools/phantom/phantom_spec.h"
 
@@ -214,25 +213,18 @@ std::vector<SimBenchRecord> RunSimBench(const SimBenchOptions& options, bool pro
 }
 
 void WriteSimBenchJson(const std::string& path, const std::vector<SimBenchRecord>& records) {
-  std::ofstream out(path);
-  if (!out) throw Error("cannot write benchmark results", path, "check the directory exists and is writable");
-  const MachineInfo machine = ReadMachineInfo();
-  out << "[\n";
-  for (size_t i = 0; i < records.size(); ++i) {
-    const SimBenchRecord& r = records[i];
-    char line[1024];
-    std::snprintf(line, sizeof line,
-                  "  {\"mesh_tets\": %d, \"mesh_nodes\": %d, \"threads\": %d, \"precision\": %s, \"mode\": %s, "
-                  "\"tet_steps_per_s\": %.6g, \"tet_steps_per_s_min\": %.6g, \"tet_steps_per_s_max\": %.6g, "
-                  "\"realtime_factor\": %.6g, \"dt_s\": %.6g, \"dt_critical_s\": %.6g, \"steps_per_repeat\": %d, "
-                  "\"repeats\": %d, \"sequential_tet_steps_per_s\": %.6g, \"concurrent_gain\": %.4g, \"cpu\": %s, \"logical_cores\": %d, \"simd\": %s, \"compiler\": %s}%s\n",
-                  r.mesh_tets, r.mesh_nodes, r.threads, JsonQuoted(r.precision).c_str(), JsonQuoted(r.mode).c_str(), r.tet_steps_per_s,
-                  r.tet_steps_per_s_min, r.tet_steps_per_s_max, r.realtime_factor, r.dt_s, r.dt_critical_s,
-                  r.steps_per_repeat, r.repeats, r.sequential_tet_steps_per_s, r.concurrent_gain, JsonQuoted(machine.cpu_model).c_str(), machine.logical_cores,
-                  JsonQuoted(machine.simd).c_str(), JsonQuoted(machine.compiler).c_str(), i + 1 < records.size() ? "," : "");
-    out << line;
+  std::vector<std::string> fields;
+  for (const SimBenchRecord& r : records) {
+    fields.push_back(Printed("\"mesh_tets\": %d, \"mesh_nodes\": %d, \"threads\": %d, \"precision\": %s, \"mode\": %s, "
+                             "\"tet_steps_per_s\": %.6g, \"tet_steps_per_s_min\": %.6g, \"tet_steps_per_s_max\": %.6g, "
+                             "\"realtime_factor\": %.6g, \"dt_s\": %.6g, \"dt_critical_s\": %.6g, \"steps_per_repeat\": %d, "
+                             "\"repeats\": %d, \"sequential_tet_steps_per_s\": %.6g, \"concurrent_gain\": %.4g",
+                             r.mesh_tets, r.mesh_nodes, r.threads, JsonQuoted(r.precision).c_str(), JsonQuoted(r.mode).c_str(),
+                             r.tet_steps_per_s, r.tet_steps_per_s_min, r.tet_steps_per_s_max, r.realtime_factor, r.dt_s,
+                             r.dt_critical_s, r.steps_per_repeat, r.repeats, r.sequential_tet_steps_per_s,
+                             r.concurrent_gain));
   }
-  out << "]\n";
+  WriteBenchJson(path, fields);
 }
 
 std::string SimBenchTable(const std::vector<SimBenchRecord>& records) {

@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
 #include <functional>
 
 #include <unistd.h>
@@ -12,8 +11,8 @@
 #include <tbb/global_control.h>
 
 #include "sim/error.h"
+#include "tools/bench/bench_json.h"
 #include "tools/json_text.h"
-#include "tools/machine_info.h"
 #include "tools/phantom/phantom_generator.h"
 #include "tools/phantom/phantom_spec.h"
 #include "tools/track/front_end.h"
@@ -100,25 +99,16 @@ std::vector<VisionBenchRecord> RunVisionBench(const VisionBenchOptions& options,
 }
 
 void WriteVisionBenchJson(const std::string& path, const std::vector<VisionBenchRecord>& records) {
-  std::ofstream out(path);
-  if (!out) throw Error("cannot write benchmark results", path, "check the directory exists and is writable");
-  const MachineInfo machine = ReadMachineInfo();
-  out << "[\n";
-  for (size_t i = 0; i < records.size(); ++i) {
-    const VisionBenchRecord& r = records[i];
-    char line[1024];
-    std::snprintf(line, sizeof line,
-                  "  {\"threads\": %d, \"width\": %d, \"height\": %d, \"frames\": %d, \"features\": %d, "
-                  "\"ms_median\": %.4g, \"ms_p95\": %.4g, \"fps\": %.4g, \"capture_ms\": %.4g, \"rectify_ms\": %.4g, "
-                  "\"temporal_ms\": %.4g, \"detect_ms\": %.4g, \"detect_ms_max\": %.4g, \"stereo_ms\": %.4g, "
-                  "\"triangulate_ms\": %.4g, \"cpu\": %s, \"logical_cores\": %d, \"simd\": %s, \"compiler\": %s}%s\n",
-                  r.threads, r.width, r.height, r.frames, r.features, r.ms_median, r.ms_p95, r.fps, r.capture_ms,
-                  r.rectify_ms, r.temporal_ms, r.detect_ms, r.detect_ms_max, r.stereo_ms, r.triangulate_ms,
-                  JsonQuoted(machine.cpu_model).c_str(), machine.logical_cores, JsonQuoted(machine.simd).c_str(),
-                  JsonQuoted(machine.compiler).c_str(), i + 1 < records.size() ? "," : "");
-    out << line;
+  std::vector<std::string> fields;
+  for (const VisionBenchRecord& r : records) {
+    fields.push_back(Printed("\"threads\": %d, \"width\": %d, \"height\": %d, \"frames\": %d, \"features\": %d, "
+                             "\"ms_median\": %.4g, \"ms_p95\": %.4g, \"fps\": %.4g, \"capture_ms\": %.4g, "
+                             "\"rectify_ms\": %.4g, \"temporal_ms\": %.4g, \"detect_ms\": %.4g, \"detect_ms_max\": %.4g, "
+                             "\"stereo_ms\": %.4g, \"triangulate_ms\": %.4g",
+                             r.threads, r.width, r.height, r.frames, r.features, r.ms_median, r.ms_p95, r.fps, r.capture_ms,
+                             r.rectify_ms, r.temporal_ms, r.detect_ms, r.detect_ms_max, r.stereo_ms, r.triangulate_ms));
   }
-  out << "]\n";
+  WriteBenchJson(path, fields);
 }
 
 std::string VisionBenchTable(const std::vector<VisionBenchRecord>& records) {
