@@ -253,8 +253,9 @@ class StageGraph::Runner {
   // The source stage: fills the packet with the next frame; false at the end.
   bool Capture(FramePacket& packet) {
     if (source_ended_.load() || Failed()) return false;
-    const std::int64_t start = NowNs();
     const int dropped = plan_.options_.policy == Policy::kRealtime ? PaceToVideoClock() : 0;
+    // After pacing: waiting for a frame to be due is neither capture's work nor the frame's latency.
+    const std::int64_t start = NowNs();
     bool read = false;
     packet.ResetFor(next_sequence_);
     Guard(plan_.source_->name(), packet, position_, [&] { read = !AtEnd() && plan_.source_->Read(packet); });
