@@ -1,20 +1,6 @@
 #include "pipeline/front_end_stages.h"
 
-#include <opencv2/imgproc.hpp>
-
 namespace dg::pipeline {
-namespace {
-
-// Into `grey`'s existing buffer when it has the size already (no allocation).
-void ToGrey(const cv::Mat& image, cv::Mat& grey) {
-  if (image.channels() == 1) {
-    image.copyTo(grey);
-  } else {
-    cv::cvtColor(image, grey, image.channels() == 4 ? cv::COLOR_BGRA2GRAY : cv::COLOR_BGR2GRAY);
-  }
-}
-
-}  // namespace
 
 CaptureSource::CaptureSource(const stages::CaptureStage::Options& options, bool rectified_input)
     : capture_(options), rectified_input_(rectified_input) {}
@@ -26,8 +12,8 @@ bool CaptureSource::Read(FramePacket& packet) {
   packet.t_s = frame->t_s;
   packet.raw = std::move(*frame);
   // Grey before rectification: the tracker needs grey, and remapping one channel is a third of the work.
-  ToGrey(packet.raw.left, packet.left_grey);
-  ToGrey(packet.raw.right, packet.right_grey);
+  stages::ConvertToGrey(packet.raw.left, packet.left_grey);
+  stages::ConvertToGrey(packet.raw.right, packet.right_grey);
   if (rectified_input_) packet.rectified = {packet.index, packet.t_s, packet.left_grey, packet.right_grey};
   return true;
 }

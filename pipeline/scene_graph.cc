@@ -1,8 +1,5 @@
 #include "pipeline/scene_graph.h"
 
-#include <algorithm>
-#include <cmath>
-
 #include "pipeline/front_end_stages.h"
 #include "sim/error.h"
 
@@ -23,26 +20,9 @@ stages::CaptureStage::Options CaptureOptions(const io::Scene::Video& video) {
   return options;
 }
 
-stages::FeatureTracker::Options TrackerOptions(const io::StereoCalibration& calibration,
-                                               const FrontEndSettings& settings) {
-  stages::FeatureTracker::Options options;
-  const stages::Triangulator geometry(calibration);
-  options.stereo.min_disparity_px = std::max(0.0, std::floor(geometry.DisparityAtDepth(settings.far_m)));
-  options.stereo.max_disparity_px = std::ceil(geometry.DisparityAtDepth(settings.near_m));
-  return options;
-}
-
 }  // namespace
 
-std::string FrontEndSettings::Validate() const {
-  if (!(near_m > 0 && far_m > near_m)) return "the depth range needs 0 < near < far";
-  return {};
-}
-
 SceneGraph BuildSceneGraph(const io::Scene& scene, const GraphOptions& options, const FrontEndSettings& settings) {
-  if (const std::string wrong = settings.Validate(); !wrong.empty()) {
-    throw Error("invalid front-end settings: " + wrong, scene.path, "check the depth range");
-  }
   SceneGraph built;
   built.calibration = io::ReadStereoCalibration(scene.calibration);
   auto source = std::make_unique<CaptureSource>(CaptureOptions(scene.video), scene.video.rectified);
@@ -63,7 +43,8 @@ SceneGraph BuildSceneGraph(const io::Scene& scene, const GraphOptions& options, 
     built.calibration.rectification = rectify->rectification();
     stages.push_back(std::make_unique<RectifyAdapter>(rectify));
   }
-  stages.push_back(std::make_unique<TrackAdapter>(TrackerOptions(built.calibration, settings), built.calibration));
+  stages.push_back(std::make_unique<TrackAdapter>(
+      stages::OptionsForDepthRange(built.calibration, settings.near_m, settings.far_m), built.calibration));
   built.graph = std::make_unique<StageGraph>(std::move(source), std::move(stages), options);
   return built;
 }

@@ -13,7 +13,6 @@ struct FrontEndSettings {
   // The depths searched by stereo matching, for the disparity range: an
   // endoscope sees tissue at a few centimetres.
   double near_m = 0.03, far_m = 0.30;
-  std::string Validate() const;  // empty when valid
 };
 
 struct SceneGraph {
@@ -26,8 +25,8 @@ struct SceneGraph {
 // The graph a scene needs and nothing more (DESIGN.md section 4): capture,
 // rectification unless the recording is rectified already, and tracking.
 // @throws dg::Error for unreadable inputs, a calibration of another image
-// size than the video, or a rectified recording whose calibration has no
-// rectification (P1, P2).
+// size than the video, a rectified recording whose calibration has no
+// rectification (P1, P2), or a depth range that OptionsForDepthRange refuses.
 SceneGraph BuildSceneGraph(const io::Scene& scene, const GraphOptions& options, const FrontEndSettings& settings = {});
 
 }  // namespace dg::pipeline

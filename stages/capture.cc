@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include <opencv2/imgproc.hpp>
+
 #include <spdlog/logger.h>
 #include <tbb/parallel_invoke.h>
 
@@ -107,6 +109,14 @@ std::optional<StereoFrame> CaptureStage::Next() {
   StereoFrame frame{next_index_, FrameTime(next_index_, container_t_s), std::move(*left), std::move(*right)};
   ++next_index_;
   return frame;
+}
+
+void ConvertToGrey(const cv::Mat& image, cv::Mat& grey) {
+  if (image.channels() == 1) {
+    if (grey.data != image.data) image.copyTo(grey);  // converting in place leaves grey as it is
+  } else {
+    cv::cvtColor(image, grey, image.channels() == 4 ? cv::COLOR_BGRA2GRAY : cv::COLOR_BGR2GRAY);
+  }
 }
 
 }  // namespace dg::stages

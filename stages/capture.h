@@ -69,4 +69,8 @@ class CaptureStage {
   bool container_times_ = true;
 };
 
+// A captured image as the tracker takes it: grey (BGR and BGRA converted,
+// grey copied), into `grey`'s buffer when it has the size already.
+void ConvertToGrey(const cv::Mat& image, cv::Mat& grey);
+
 }  // namespace dg::stages

@@ -88,4 +88,11 @@ class FeatureTracker {
   std::int64_t next_id_ = 0;
 };
 
+// The tracker's default options with the stereo search limited to depths in
+// [near_m, far_m] (far may be infinite), turned into a disparity range by the
+// rectified calibration.
+// @throws dg::Error naming --near/--far for an empty range, and --near for a
+// near depth whose disparity is as wide as the image.
+FeatureTracker::Options OptionsForDepthRange(const io::StereoCalibration& rectified, double near_m, double far_m);
+
 }  // namespace dg::stages

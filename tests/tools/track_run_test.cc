@@ -16,8 +16,7 @@
 #include "io/calibration.h"
 #include "io/h5_file.h"
 #include "sim/error.h"
-#include "tools/phantom/phantom_generator.h"
-#include "tools/phantom/phantom_spec.h"
+#include "tests/support/tiny_phantom.h"
 #include "tools/track/front_end.h"
 #include "tools/track/track_run.h"
 #include "tools/track/track_table.h"
@@ -27,20 +26,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// The tiny phantom, once per process (test processes run concurrently), removed at exit.
-struct TemporaryScene {
-  std::string dir = (fs::temp_directory_path() / ("dg_track_run_test_" + std::to_string(::getpid()))).string();
-  TemporaryScene() {
-    fs::remove_all(dir);
-    phantom::GeneratePhantom(phantom::PresetSpec("tiny"), dir, false);
-  }
-  ~TemporaryScene() { fs::remove_all(dir); }
-};
-
-const std::string& TinyScene() {
-  static const TemporaryScene scene;
-  return scene.dir;
-}
+const std::string& TinyScene() { return dg::testing::TinyPhantomDir(); }
 
 std::vector<std::vector<std::string>> ReadCsv(const std::string& path) {
   std::ifstream in(path);

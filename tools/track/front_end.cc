@@ -2,11 +2,8 @@
 
 #include <algorithm>
 #include <chrono>
-#include <cmath>
 #include <filesystem>
 #include <utility>
-
-#include <opencv2/imgproc.hpp>
 
 #include "io/calibration.h"
 #include "io/scene.h"
@@ -21,13 +18,6 @@ bool IsImagePath(const std::string& path) {
   for (const char* image : {".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".pgm", ".ppm"})
     if (ext == image) return true;
   return false;
-}
-
-cv::Mat Grey(const cv::Mat& image) {
-  if (image.channels() == 1) return image;
-  cv::Mat grey;
-  cv::cvtColor(image, grey, image.channels() == 4 ? cv::COLOR_BGRA2GRAY : cv::COLOR_BGR2GRAY);
-  return grey;
 }
 
 double MsSince(std::chrono::steady_clock::time_point start) {
@@ -70,21 +60,8 @@ FrontEnd::FrontEnd(const FrontEndInput& input) {
   }
   calibration.rectification = rectify_->rectification();
 
-  if (!(input.near_m > 0 && input.near_m < input.far_m) || std::isnan(input.far_m)) {
-    throw Error("the depth range " + std::to_string(input.near_m) + " to " + std::to_string(input.far_m) +
-                    " m is empty or not in front of the camera",
-                "--near/--far", "give 0 < near < far in metres, e.g. --near 0.03 --far 0.3");
-  }
-  stages::FeatureTracker::Options options;
-  const stages::Triangulator geometry(calibration);
-  options.stereo.min_disparity_px = std::max(0.0, std::floor(geometry.DisparityAtDepth(input.far_m)));
-  options.stereo.max_disparity_px = std::ceil(geometry.DisparityAtDepth(input.near_m));
-  if (options.stereo.max_disparity_px >= size().width) {
-    throw Error("the near depth " + std::to_string(input.near_m) + " m is a disparity of " +
-                    std::to_string(options.stereo.max_disparity_px) + " px, wider than the image",
-                "--near", "give a larger near depth");
-  }
-  tracker_ = std::make_unique<stages::FeatureTracker>(options, calibration);
+  tracker_ = std::make_unique<stages::FeatureTracker>(
+      stages::OptionsForDepthRange(calibration, input.near_m, input.far_m), calibration);
 }
 
 FrontEnd::~FrontEnd() {
@@ -100,8 +77,8 @@ void FrontEnd::StartCapture() {
     decoded_ = capture_->Next();
     if (!decoded_) return;
     // Grey before rectification: the tracker needs grey, and remapping one channel is a third of the work.
-    decoded_->left = Grey(decoded_->left);
-    decoded_->right = Grey(decoded_->right);
+    stages::ConvertToGrey(decoded_->left, decoded_->left);
+    stages::ConvertToGrey(decoded_->right, decoded_->right);
   });
 }
 
