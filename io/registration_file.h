@@ -1,6 +1,7 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
 #include <Eigen/Core>
 
@@ -50,5 +51,11 @@ Registration ReadRegistrationYaml(const std::string& path);
 // /registration): T_C_S [4,4], phase_shift_s, period_s, cycles, covariance
 // [7,7] and {left,right}/{observations,outliers,mean_px,...}.
 void WriteRegistrationH5(io::H5Writer* file, const std::string& group, const Registration& registration);
+
+// A user's first-frame fiducial pixels: one "u,v" (or "u v") line per
+// fiducial, in the scan's fiducial order, in the first left frame's original
+// pixels; lines starting with # are comments.
+// @throws dg::Error naming the file and line of a malformed line, or no fiducials.
+std::vector<Eigen::Vector2d> ReadFiducialPixels(const std::string& path);
 
 }  // namespace dg::io

@@ -107,6 +107,49 @@ Scene::Video ReadVideo(const YamlMap& map, const fs::path& directory) {
   return video;
 }
 
+Scene::Registration ReadRegistration(const YamlMap& map, const fs::path& directory) {
+  Scene::Registration registration;
+  if (map.Has("file")) registration.file = File(map, "file", directory);
+  registration.cycles = map.Number("cycles", registration.cycles);
+  if (!(registration.cycles >= 1)) {
+    throw Error("'cycles' must be at least 1", map.Where("cycles"), "register over one or more whole cardiac cycles");
+  }
+  if (map.Has("fiducials_uv")) registration.fiducials_uv = File(map, "fiducials_uv", directory);
+  map.RejectUnknown();
+  return registration;
+}
+
+Scene::Simulation ReadSimulation(const YamlMap& map) {
+  Scene::Simulation simulation;
+  simulation.mode = map.String("mode", simulation.mode);
+  if (simulation.mode != "surface" && simulation.mode != "volume" && simulation.mode != "combined") {
+    throw Error("unknown simulation mode '" + simulation.mode + "'", map.Where("mode"),
+                "use surface (tracked surface only), volume (recovered forces only) or combined");
+  }
+  simulation.dt_s = map.Number("dt_s", simulation.dt_s);
+  simulation.damping_per_s = map.Number("damping_per_s", simulation.damping_per_s);
+  simulation.motion_smoothing = map.Number("motion_smoothing", simulation.motion_smoothing);
+  simulation.concurrent = map.Boolean("concurrent", simulation.concurrent);
+  simulation.sampled_nodes = map.Integer("sampled_nodes", simulation.sampled_nodes);
+  simulation.max_tie_distance_m = map.Number("max_tie_distance_m", simulation.max_tie_distance_m);
+  if (!(simulation.dt_s > 0)) throw Error("'dt_s' must be positive", map.Where("dt_s"), "the paper uses 2e-4 s");
+  if (!(simulation.damping_per_s >= 0)) {
+    throw Error("'damping_per_s' must not be negative", map.Where("damping_per_s"), "the paper uses 75 per second");
+  }
+  if (!(simulation.motion_smoothing >= 0)) {
+    throw Error("'motion_smoothing' must not be negative", map.Where("motion_smoothing"), "0 interpolates the scan");
+  }
+  if (simulation.sampled_nodes < 0) {
+    throw Error("'sampled_nodes' must not be negative", map.Where("sampled_nodes"), "0 logs no node positions");
+  }
+  if (!(simulation.max_tie_distance_m > 0)) {
+    throw Error("'max_tie_distance_m' must be positive", map.Where("max_tie_distance_m"),
+                "give about the surface mesh's edge length");
+  }
+  map.RejectUnknown();
+  return simulation;
+}
+
 }  // namespace
 
 Scene ReadScene(const std::string& path) {
@@ -137,6 +180,14 @@ Scene ReadScene(const std::string& path) {
 
   scene.video = ReadVideo(top.Map("video"), directory);
 
+  if (top.Has("registration")) scene.registration = ReadRegistration(top.Map("registration"), directory);
+  if (top.Has("simulation")) {
+    scene.simulation = ReadSimulation(top.Map("simulation"));
+    if (!scene.preoperative && scene.simulation->mode != "surface") {
+      throw Error("simulation mode '" + scene.simulation->mode + "' needs the scan's motion (preoperative:)",
+                  top.Where("simulation"), "add a preoperative: block, or use mode: surface");
+    }
+  }
   if (top.Has("truth")) scene.truth = File(top, "truth", directory);
   top.RejectUnknown();
   return scene;

@@ -54,6 +54,32 @@ struct Scene {
     bool rectified = false;  // the recording is already rectified: the graph has no rectify stage
   } video;
 
+  // How the scan is registered to the video (DESIGN.md section 6). With a
+  // file (a YAML `dynaguide register --out` wrote) the run has no
+  // registration stage; otherwise the run registers over its first `cycles`
+  // scan periods, following the fiducials from their pixels in the first left
+  // frame (`fiducials_uv`, a file of u,v lines; without it, the truth's).
+  // Absent: registered by the run when the scene has a simulation.
+  struct Registration {
+    std::string file;
+    double cycles = 3;
+    std::string fiducials_uv;
+  };
+  std::optional<Registration> registration;
+
+  // The image-constrained simulation (DESIGN.md section 5); absent: the run
+  // ends at tracking.
+  struct Simulation {
+    std::string mode = "combined";  // surface, volume or combined
+    double dt_s = 2e-4;
+    double damping_per_s = 75;      // the paper's alpha
+    double motion_smoothing = 0;    // the motion model's smoothing weight (0: interpolating)
+    bool concurrent = true;         // inverse beside forward
+    int sampled_nodes = 256;        // nodes logged per frame in /sim
+    double max_tie_distance_m = 3e-3;  // features farther from every free surface node are not tied
+  };
+  std::optional<Simulation> simulation;
+
   std::string truth;  // optional: ground truth HDF5
 };
 

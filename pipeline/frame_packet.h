@@ -2,12 +2,21 @@
 
 #include <array>
 #include <cstdint>
+#include <memory>
 
 #include <opencv2/core.hpp>
 
+#include "stages/constraints/constraint_mapper.h"
 #include "stages/rectify.h"
 #include "stages/stereo_frame.h"
 #include "stages/track/feature_tracker.h"
+
+namespace dg::io {
+struct Registration;
+}
+namespace dg::stages {
+struct FemFrameOutput;
+}
 
 namespace dg::pipeline {
 
@@ -39,6 +48,15 @@ struct FramePacket {
   cv::Mat left_grey, right_grey;    // the tracker's input before rectification
   stages::RectifiedPair rectified;  // grey, rectified (or the grey input when it comes rectified)
   stages::TrackFrame tracks;
+  // The scan's registration to the video: from the frame the registration
+  // stage solved it on (or from the first frame, when the scene gives it);
+  // null before. Shared, never written after it is set.
+  std::shared_ptr<const io::Registration> registration;
+  stages::NodeTargets targets;  // constraint mapping's, for the FEM stage
+  // The FEM stage's node positions and record; null before the simulation
+  // starts (at the first registered frame). Shared with the overlays, which
+  // may still draw it after the packet is reused.
+  std::shared_ptr<const stages::FemFrameOutput> simulation;
 
   std::array<StageTiming, kMaxStages> timings;
   int timing_count = 0;
@@ -47,6 +65,8 @@ struct FramePacket {
     sequence = next_sequence;
     dropped_before = 0;
     timing_count = 0;
+    registration.reset();
+    simulation.reset();
   }
 };
 

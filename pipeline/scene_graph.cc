@@ -1,5 +1,6 @@
 #include "pipeline/scene_graph.h"
 
+#include "io/h5_file.h"
 #include "pipeline/front_end_stages.h"
 #include "sim/error.h"
 
@@ -18,6 +19,44 @@ stages::CaptureStage::Options CaptureOptions(const io::Scene::Video& video) {
                    : video.layout == Layout::kImageSequences ? stages::CaptureStage::Layout::kImageSequences
                                                              : stages::CaptureStage::Layout::kTwoFiles;
   return options;
+}
+
+// Where the fiducials are in the first left frame: the scene's file, or the truth's first frame.
+std::vector<Eigen::Vector2d> FirstFiducialPixels(const io::Scene& scene) {
+  if (!scene.registration->fiducials_uv.empty()) return io::ReadFiducialPixels(scene.registration->fiducials_uv);
+  if (scene.truth.empty()) {
+    throw Error("the fiducials' first-frame pixels are not known", scene.path,
+                "give registration.fiducials_uv: a file of u,v lines, one per scan fiducial (first left frame)");
+  }
+  io::H5Shape shape;
+  const std::vector<double> uv = io::H5Reader(scene.truth).Read<double>("/fiducials/uv_left_px", &shape);
+  std::vector<Eigen::Vector2d> first;
+  for (size_t i = 0; shape.size() == 3 && i < shape[1]; ++i) first.emplace_back(uv[2 * i], uv[2 * i + 1]);
+  return first;
+}
+
+std::unique_ptr<PacketStage> MakeRegisterStage(const io::Scene& scene, const io::StereoCalibration& calibration,
+                                               const FrontEndSettings& settings) {
+  if (!scene.preoperative) {
+    throw Error("registration needs the scan (preoperative: period_s, phases, motion)", scene.path,
+                "add a preoperative: block, or give registration.file");
+  }
+  stages::FiducialMotion motion = stages::ReadFiducialMotion(scene.preoperative->motion);
+  if (motion.num_phases() != scene.preoperative->phases) {
+    throw Error("the scan has " + std::to_string(motion.num_phases()) + " phases of fiducials but the scene says " +
+                    std::to_string(scene.preoperative->phases),
+                scene.path, "make preoperative.phases match the scan");
+  }
+  const std::vector<Eigen::Vector2d> first = FirstFiducialPixels(scene);
+  if (static_cast<int>(first.size()) != motion.num_fiducials()) {
+    throw Error(std::to_string(first.size()) + " first-frame pixels for " + std::to_string(motion.num_fiducials()) +
+                    " scan fiducials",
+                scene.path, "give one pixel per scan fiducial, in the scan's order");
+  }
+  stages::RegistrationStage::Options options;
+  options.cycles = scene.registration->cycles;
+  return std::make_unique<RegisterAdapter>(options, std::move(motion), calibration, scene.preoperative->period_s,
+                                           first, settings.near_m, settings.far_m);
 }
 
 }  // namespace
@@ -45,6 +84,22 @@ SceneGraph BuildSceneGraph(const io::Scene& scene, const GraphOptions& options, 
   }
   stages.push_back(std::make_unique<TrackAdapter>(
       stages::OptionsForDepthRange(built.calibration, settings.near_m, settings.far_m), built.calibration));
+
+  io::Scene with_defaults = scene;  // a simulation is registered over the default window unless the scene says
+  if (with_defaults.simulation && !with_defaults.registration) with_defaults.registration.emplace();
+  if (with_defaults.registration) {
+    if (!with_defaults.registration->file.empty()) {
+      built.given_registration =
+          std::make_shared<const io::Registration>(io::ReadRegistrationYaml(with_defaults.registration->file));
+    } else {
+      stages.push_back(MakeRegisterStage(with_defaults, built.calibration, settings));
+    }
+  }
+  if (scene.simulation) {
+    built.simulation = LoadSimulationSetup(scene);
+    stages.push_back(std::make_unique<ConstraintAdapter>(built.simulation, built.given_registration));
+    stages.push_back(std::make_unique<FemAdapter>(built.simulation));
+  }
   built.graph = std::make_unique<StageGraph>(std::move(source), std::move(stages), options);
   return built;
 }

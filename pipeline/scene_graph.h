@@ -4,6 +4,7 @@
 
 #include "io/calibration.h"
 #include "io/scene.h"
+#include "pipeline/simulation_stages.h"
 #include "pipeline/stage_graph.h"
 
 namespace dg::pipeline {
@@ -20,13 +21,22 @@ struct SceneGraph {
   // The scene's calibration with the rectification the graph applies (the
   // tracks' rectified coordinates refer to it).
   io::StereoCalibration calibration;
+  // The scene's own registration (registration.file), or null when the graph registers.
+  std::shared_ptr<const io::Registration> given_registration;
+  // What the simulation stages run on; null when the scene has no simulation.
+  std::shared_ptr<const SimulationSetup> simulation;
 };
 
 // The graph a scene needs and nothing more (DESIGN.md section 4): capture,
-// rectification unless the recording is rectified already, and tracking.
+// rectification unless the recording is rectified already, and tracking;
+// with a simulation, constraint mapping and the FEM step, preceded by
+// registration unless the scene gives a registration file (a scene may also
+// ask for registration alone).
 // @throws dg::Error for unreadable inputs, a calibration of another image
 // size than the video, a rectified recording whose calibration has no
-// rectification (P1, P2), or a depth range that OptionsForDepthRange refuses.
+// rectification (P1, P2), a depth range that OptionsForDepthRange refuses,
+// registration without the scan's fiducials or their first-frame pixels, or
+// a simulation the scene's mesh or motion cannot run.
 SceneGraph BuildSceneGraph(const io::Scene& scene, const GraphOptions& options, const FrontEndSettings& settings = {});
 
 }  // namespace dg::pipeline

@@ -30,9 +30,7 @@ FemStage::FemStage(const Options& options, const sim::TetMesh& mesh, const sim::
   coupled.concurrent = options_.concurrent;
   simulation_ = std::make_unique<sim::CoupledSimulation<float>>(
       std::make_shared<const sim::TledModel<float>>(mesh, material), std::move(motion), fixed_nodes, coupled);
-  const int N = mesh.num_nodes();
-  const int samples = std::min(N, options_.sampled_nodes);
-  for (int k = 0; k < samples; ++k) sampled_nodes_.push_back(static_cast<int>(int64_t(k) * N / samples));
+  sampled_nodes_ = SampledNodeIds(mesh.num_nodes(), options_.sampled_nodes);
 }
 
 Eigen::Matrix3Xd FemStage::first_displacement_S_m() const {
@@ -94,6 +92,13 @@ FemFrameOutput FemStage::Process(int frame, const NodeTargets& targets) {
   if (!targets.nodes.empty()) record.constraint_residual_rms_mm = std::sqrt(sum_sq / targets.nodes.size()) * 1e3;
   record.dt_over_dt_critical = options_.dt_s / simulation.stability().dt_critical_s;
   return output;
+}
+
+std::vector<int> SampledNodeIds(int nodes, int samples) {
+  samples = std::min(nodes, samples);
+  std::vector<int> ids;
+  for (int k = 0; k < samples; ++k) ids.push_back(static_cast<int>(std::int64_t(k) * nodes / samples));
+  return ids;
 }
 
 std::shared_ptr<const sim::CyclicMotionModel> LoadMotionModel(const std::string& scan_h5, int mesh_nodes,

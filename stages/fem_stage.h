@@ -49,7 +49,7 @@ class FemStage {
     double damping_per_s = 75;         // the paper's alpha
     double fps = 30;
     double phase_at_first_frame = 0;   // the registration's cardiac phase of frame 0
-    int sampled_nodes = 256;           // nodes logged per frame (evenly spread over the ids)
+    int sampled_nodes = 256;           // nodes logged per frame (SampledNodeIds)
     bool concurrent = true;            // inverse beside forward (false: one after the other)
     std::string Validate() const;      // empty when valid
   };
@@ -79,6 +79,10 @@ class FemStage {
   std::vector<int> sampled_nodes_;
   int last_frame_ = -1;
 };
+
+// The nodes a FEM stage logs: `samples` ids spread evenly over 0..nodes-1
+// (all of them when samples >= nodes).
+std::vector<int> SampledNodeIds(int nodes, int samples);
 
 // The scan's motion model from an HDF5 file with /phases/node_displacement_m
 // [phase, node, xyz] (as `dynaguide phantom` writes scan.h5).

@@ -129,4 +129,40 @@ TEST_CASE("scene: video layouts", "[io][unit]") {
   REQUIRE_THROWS_WITH(ReadScene((dir / "scene.yaml").string()), Catch::Contains("'rectified' must be true or false"));
 }
 
+// The simulation and registration blocks: defaults, values, and named errors.
+TEST_CASE("scene: simulation and registration", "[io][unit]") {
+  std::string text = kScene;
+  text += "simulation:\n  mode: volume\n  dt_s: 1.0e-4\n  concurrent: false\nregistration:\n  cycles: 2\n";
+  fs::path dir = MakeSceneDir("dg_scene_test_sim", text);
+  Scene scene = ReadScene((dir / "scene.yaml").string());
+  REQUIRE(scene.simulation->mode == "volume");
+  REQUIRE(scene.simulation->dt_s == 1e-4);
+  REQUIRE_FALSE(scene.simulation->concurrent);
+  REQUIRE(scene.simulation->damping_per_s == 75);  // the paper's alpha by default
+  REQUIRE(scene.registration->cycles == 2);
+  REQUIRE(scene.registration->file.empty());
+
+  dir = MakeSceneDir("dg_scene_test_sim", kScene + std::string("registration:\n  file: registration.yaml\n"));
+  REQUIRE_THROWS_WITH(ReadScene((dir / "scene.yaml").string()),
+                      Catch::Contains("file not found") && Catch::Contains("registration.file"));
+  std::ofstream(dir / "registration.yaml") << "";
+  scene = ReadScene((dir / "scene.yaml").string());
+  REQUIRE(scene.registration->file == (dir / "registration.yaml").string());
+  REQUIRE_FALSE(scene.simulation);
+
+  dir = MakeSceneDir("dg_scene_test_sim", kScene + std::string("simulation:\n  mode: rigid\n"));
+  REQUIRE_THROWS_WITH(ReadScene((dir / "scene.yaml").string()),
+                      Catch::Contains("unknown simulation mode 'rigid'") && Catch::Contains("simulation.mode"));
+  dir = MakeSceneDir("dg_scene_test_sim", kScene + std::string("simulation:\n  dt: 2e-4\n"));
+  REQUIRE_THROWS_WITH(ReadScene((dir / "scene.yaml").string()), Catch::Contains("simulation.dt"));
+  dir = MakeSceneDir("dg_scene_test_sim", kScene + std::string("registration:\n  cycles: 0.5\n"));
+  REQUIRE_THROWS_WITH(ReadScene((dir / "scene.yaml").string()), Catch::Contains("registration.cycles"));
+
+  // Forces recovered from the scan's motion need the scan.
+  text = kScene;
+  text.erase(text.find("preoperative:"), text.find("overlays:") - text.find("preoperative:"));
+  dir = MakeSceneDir("dg_scene_test_sim", text + "simulation:\n  mode: combined\n");
+  REQUIRE_THROWS_WITH(ReadScene((dir / "scene.yaml").string()), Catch::Contains("needs the scan's motion"));
+}
+
 }  // namespace dg::io

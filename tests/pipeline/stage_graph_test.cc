@@ -15,10 +15,12 @@
 #include <tbb/global_control.h>
 
 #include "io/calibration.h"
+#include "io/registration_file.h"
 #include "io/scene.h"
 #include "pipeline/front_end_stages.h"
 #include "pipeline/scene_graph.h"
 #include "sim/error.h"
+#include "stages/fem_stage.h"
 #include "stages/rectify.h"
 #include "tests/support/tiny_phantom.h"
 
@@ -134,27 +136,80 @@ std::vector<std::int64_t> Range(std::int64_t first, std::int64_t end) {
 
 }  // namespace
 
+namespace {
+
+// The scene text without one of its top-level blocks.
+std::string WithoutBlock(std::string text, const std::string& block) {
+  const size_t start = text.find(block + ":\n");
+  REQUIRE(start != std::string::npos);
+  size_t end = text.find('\n', start);
+  while (end + 1 < text.size() && text[end + 1] == ' ') end = text.find('\n', end + 1);
+  return text.erase(start, end + 1 - start);
+}
+
+io::Scene SceneFromText(const std::string& name, const std::string& text) {
+  const std::string path = TinyPhantomDir() + "/" + name;
+  std::ofstream(path) << text;
+  return io::ReadScene(path);
+}
+
+std::vector<std::string> NodeNames(const StageGraph& graph) {
+  std::vector<std::string> names;
+  for (const StageGraph::Node& node : graph.nodes()) names.push_back(node.name);
+  return names;
+}
+
+}  // namespace
+
 TEST_CASE("graph: built with exactly the stages the scene needs", "[pipeline][integration]") {
   const io::Scene scene = TinyScene();
-  const SceneGraph raw = BuildSceneGraph(scene, {});
-  std::vector<std::string> names;
-  for (const StageGraph::Node& node : raw.graph->nodes()) names.push_back(node.name);
-  REQUIRE(raw.graph->stage_names() == std::vector<std::string>{"capture", "rectify", "track", "sink"});
-  // rectify may reorder frames (unlimited concurrency): a sequencer restores the order before the tracker.
-  REQUIRE(names == std::vector<std::string>{"free_packets", "ticker", "limiter", "capture", "rectify",
-                                            "order_before_track", "track", "sink"});
-  REQUIRE(raw.graph->edges().size() == 9);
+  // The phantom's scene: registration from the video, then the combined simulation.
+  const SceneGraph full = BuildSceneGraph(scene, {});
+  REQUIRE(full.graph->stage_names() ==
+          std::vector<std::string>{"capture", "rectify", "track", "register", "constraints", "simulate", "sink"});
+  REQUIRE(full.simulation->motion != nullptr);  // combined: the scan's motion drives the inverse simulation
+  REQUIRE(full.given_registration == nullptr);
+
+  SECTION("without a simulation the graph ends at tracking") {
+    const io::Scene front_end =
+        SceneFromText("scene_front_end.yaml", WithoutBlock(WithoutBlock(scene.text, "simulation"), "registration"));
+    const SceneGraph raw = BuildSceneGraph(front_end, {});
+    REQUIRE(raw.graph->stage_names() == std::vector<std::string>{"capture", "rectify", "track", "sink"});
+    // rectify may reorder frames (unlimited concurrency): a sequencer restores the order before the tracker.
+    REQUIRE(NodeNames(*raw.graph) == std::vector<std::string>{"free_packets", "ticker", "limiter", "capture",
+                                                              "rectify", "order_before_track", "track", "sink"});
+    REQUIRE(raw.graph->edges().size() == 9);
+    REQUIRE(raw.simulation == nullptr);
+  }
+
+  SECTION("a scene that gives the registration has no register stage") {
+    io::Registration registration;
+    registration.period_s = scene.preoperative->period_s;
+    io::WriteRegistrationYaml(TinyPhantomDir() + "/registration.yaml", registration);
+    const io::Scene given = SceneFromText(
+        "scene_registered.yaml", WithoutBlock(scene.text, "registration") + "registration:\n  file: registration.yaml\n");
+    const SceneGraph built = BuildSceneGraph(given, {});
+    REQUIRE(built.graph->stage_names() ==
+            std::vector<std::string>{"capture", "rectify", "track", "constraints", "simulate", "sink"});
+    REQUIRE(built.given_registration != nullptr);
+  }
+
+  SECTION("surface mode loads no motion model: there is no inverse simulation") {
+    std::string text = scene.text;
+    text.replace(text.find("mode: combined"), 14, "mode: surface");
+    const SceneGraph built = BuildSceneGraph(SceneFromText("scene_surface.yaml", text), {});
+    REQUIRE(built.simulation->motion == nullptr);
+  }
 
   SECTION("a recording that is already rectified has no rectify node") {
     io::StereoCalibration calibration = io::ReadStereoCalibration(scene.calibration);
     calibration.rectification = stages::ComputeRectification(calibration, 0);
     const std::string rectified_calibration = TinyPhantomDir() + "/calibration_rectified.yaml";
     io::WriteStereoCalibration(rectified_calibration, calibration);
-    std::string text = scene.text;
+    std::string text = WithoutBlock(WithoutBlock(scene.text, "simulation"), "registration");
     text.replace(text.find("calibration.yaml"), 16, "calibration_rectified.yaml");
     text.replace(text.find("video:\n"), 7, "video:\n  rectified: true\n");
-    std::ofstream(TinyPhantomDir() + "/scene_rectified.yaml") << text;
-    const SceneGraph rectified = BuildSceneGraph(io::ReadScene(TinyPhantomDir() + "/scene_rectified.yaml"), {});
+    const SceneGraph rectified = BuildSceneGraph(SceneFromText("scene_rectified.yaml", text), {});
     REQUIRE(rectified.graph->stage_names() == std::vector<std::string>{"capture", "track", "sink"});
     for (const StageGraph::Node& node : rectified.graph->nodes()) REQUIRE(node.kind != "sequencer");
   }
@@ -177,17 +232,19 @@ TEST_CASE("graph: offline runs are lossless and ordered on 1 and 2 threads", "[p
 }
 
 // The reference the benchmark measures the graph's overhead against: the
-// same stages in a plain loop produce the same tracks, frame for frame.
+// same stages in a plain loop produce the same tracks and simulation, frame for frame.
 TEST_CASE("graph: the inline run tracks exactly as the graph does", "[pipeline][integration]") {
   struct TrackCounts final : GraphSink {
     void Consume(const FramePacket& packet) override {
       std::int64_t id_sum = 0;
       for (const stages::TrackedPoint& p : packet.tracks.points) id_sum += p.id;
       tracks.push_back({packet.index, static_cast<std::int64_t>(packet.tracks.points.size()), id_sum});
+      if (packet.simulation) nodes.push_back(packet.simulation->nodes_S_m);
     }
     void RecordTimings(std::span<const StageTiming>) override {}
     void RecordDrop(std::int64_t, std::int64_t) override {}
     std::vector<std::array<std::int64_t, 3>> tracks;  // frame, points, sum of ids
+    std::vector<Eigen::Matrix3Xd> nodes;              // per simulated frame
   } graph_sink, inline_sink;
   const io::Scene scene = TinyScene();
   REQUIRE(BuildSceneGraph(scene, {}).graph->Run(graph_sink).complete);
@@ -195,6 +252,10 @@ TEST_CASE("graph: the inline run tracks exactly as the graph does", "[pipeline][
   REQUIRE(graph_sink.tracks.size() == static_cast<size_t>(scene.video.frames));
   REQUIRE(graph_sink.tracks[5][1] > 10);
   REQUIRE(inline_sink.tracks == graph_sink.tracks);
+  // The simulation starts once the registration window is full, and is bitwise the same.
+  REQUIRE(graph_sink.nodes.size() > 5);
+  REQUIRE(inline_sink.nodes.size() == graph_sink.nodes.size());
+  for (size_t k = 0; k < graph_sink.nodes.size(); ++k) REQUIRE((inline_sink.nodes[k].array() == graph_sink.nodes[k].array()).all());
 }
 
 TEST_CASE("graph: a frame range streams only those frames", "[pipeline][integration]") {

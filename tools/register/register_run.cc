@@ -8,6 +8,7 @@
 #include <Eigen/Geometry>
 
 #include "io/calibration.h"
+#include "io/registration_file.h"
 #include "io/scene.h"
 #include "sim/error.h"
 #include "stages/register/bead_detection.h"
@@ -98,7 +99,7 @@ RegisterRunSummary RunRegister(const RegisterRunOptions& options) {
 
   std::vector<Eigen::Vector2d> first_uv;
   if (!options.fiducials_uv.empty()) {
-    first_uv = ReadFiducialPixels(options.fiducials_uv);
+    first_uv = io::ReadFiducialPixels(options.fiducials_uv);
     summary.starts_from = options.fiducials_uv;
   } else if (!scene.truth.empty()) {
     const RegistrationTruth truth = ReadRegistrationTruth(scene.truth);

@@ -1,8 +1,6 @@
 #include "tools/register/video_fiducials.h"
 
 #include <cmath>
-#include <fstream>
-#include <sstream>
 
 #include <opencv2/imgproc.hpp>
 
@@ -70,27 +68,6 @@ stages::FiducialTracks TrackFiducialsInVideo(const io::Scene& scene, const std::
     tracks.frames.push_back(std::move(sightings));
   }
   return tracks;
-}
-
-std::vector<Eigen::Vector2d> ReadFiducialPixels(const std::string& path) {
-  std::ifstream file(path);
-  if (!file) throw Error("cannot read the fiducial pixels", path, "give a text file of u,v lines");
-  std::vector<Eigen::Vector2d> uv;
-  std::string line;
-  for (int number = 1; std::getline(file, line); ++number) {
-    if (line.find_first_not_of(" \t\r") == std::string::npos || line[line.find_first_not_of(" \t")] == '#') continue;
-    for (char& c : line) c = c == ',' ? ' ' : c;
-    std::istringstream fields(line);
-    double u, v;
-    std::string rest;
-    if (!(fields >> u >> v) || (fields >> rest) || !std::isfinite(u) || !std::isfinite(v)) {
-      throw Error("expected two numbers u,v", path + ":" + std::to_string(number),
-                  "write one fiducial per line: its pixel in the first left frame");
-    }
-    uv.emplace_back(u, v);
-  }
-  if (uv.empty()) throw Error("no fiducial pixels", path, "write one u,v line per fiducial, in the scan's order");
-  return uv;
 }
 
 }  // namespace dg::tools

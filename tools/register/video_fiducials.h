@@ -19,10 +19,5 @@ namespace dg::tools {
 stages::FiducialTracks TrackFiducialsInVideo(const io::Scene& scene, const std::vector<Eigen::Vector2d>& first_uv_left_px,
                                              double window_s);
 
-// A user's first-frame fiducial pixels: one "u,v" (or "u v") line per
-// fiducial, in the scan's fiducial order, in the first left frame's original
-// pixels; lines starting with # are comments.
-// @throws dg::Error naming the file and line of a malformed line, or no fiducials.
-std::vector<Eigen::Vector2d> ReadFiducialPixels(const std::string& path);
 
 }  // namespace dg::tools

@@ -10,8 +10,11 @@
 #include "io/run_log.h"
 #include "io/scene.h"
 #include "pipeline/annotated_video.h"
+#include "pipeline/error_log.h"
 #include "pipeline/run_log_sink.h"
+#include "pipeline/simulation_log.h"
 #include "sim/error.h"
+#include "sim/log.h"
 #include "tools/machine_info.h"
 #include "tools/progress.h"
 #include "tools/run/default_scene.h"
@@ -62,6 +65,13 @@ RunOutcome RunScene(const RunOptions& options) {
                  built.graph->stage_names());
 
   std::vector<pipeline::RunLogSink::Consumer> consumers;
+  pipeline::SimulationLog simulation_log(log, built.simulation, built.given_registration);
+  consumers.push_back([&](const pipeline::FramePacket& packet) { simulation_log.Consume(packet); });
+  std::optional<pipeline::ErrorLog> error_log;
+  if (built.simulation && !scene.truth.empty()) {
+    error_log.emplace(log, scene.truth, built.simulation->mesh, built.calibration.left);
+    consumers.push_back([&](const pipeline::FramePacket& packet) { error_log->Consume(packet); });
+  }
   std::optional<pipeline::AnnotatedVideo> video;
   if (options.video) {
     outcome.video_path = (fs::path(options.out_dir) / "annotated.avi").string();
@@ -92,6 +102,12 @@ RunOutcome RunScene(const RunOptions& options) {
   log.file().WriteAttribute("/", "frames_dropped", result.frames_dropped);
   log.file().WriteAttribute("/", "wall_s", result.wall_s);
   log.file().WriteAttribute("/", "video_frames_dropped", outcome.video_frames_dropped);
+  outcome.simulated_frames = simulation_log.simulated_frames();
+  log.file().WriteAttribute("/", "simulated_frames", outcome.simulated_frames);
+  if (result.complete && built.simulation && outcome.simulated_frames == 0) {
+    Logger("run").warn("the video ended before the registration window was full: nothing was simulated "
+                       "(register over fewer cycles with registration.cycles, or give registration.file)");
+  }
   log.Finish(result.complete, result.error);
   if (!result.complete) {
     throw Error(result.error, outcome.log_path,

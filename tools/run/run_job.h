@@ -23,6 +23,7 @@ struct RunOutcome {
   pipeline::RunStatistics statistics;
   std::string log_path, video_path;
   std::int64_t video_frames_dropped = 0;
+  std::int64_t simulated_frames = 0;  // frames the FEM stage advanced to (0 without a simulation)
 };
 
 // The graph a run would build, as text (`dynaguide run --print-graph`).

@@ -1,0 +1,116 @@
+#include "pipeline/error_log.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <Eigen/Geometry>
+
+#include "io/h5_file.h"
+#include "io/registration_file.h"
+#include "sim/error.h"
+#include "stages/fem_stage.h"
+#include "stages/overlay/overlay_error.h"
+
+namespace dg::pipeline {
+namespace {
+
+struct Moments {
+  double mean = 0, rms = 0, max = 0;
+};
+
+Moments MomentsOf(const std::vector<double>& values) {
+  Moments m;
+  for (double v : values) {
+    m.mean += v;
+    m.rms += v * v;
+    m.max = std::max(m.max, v);
+  }
+  if (!values.empty()) {
+    m.mean /= values.size();
+    m.rms = std::sqrt(m.rms / values.size());
+  }
+  return m;
+}
+
+std::vector<io::H5Column> ErrorColumns(int internal_points) {
+  using io::H5Type;
+  std::vector<io::H5Column> columns = {{"frame", H5Type::kInt64}, {"t_s", H5Type::kDouble},
+                                       {"surface_points", H5Type::kInt32}};
+  for (const char* name : {"surface_mean_px", "surface_rms_px", "surface_max_px", "surface_mean_mm", "surface_rms_mm",
+                           "surface_max_mm", "internal_mean_mm", "internal_rms_mm", "internal_max_mm"}) {
+    columns.push_back({name, H5Type::kDouble});
+  }
+  columns.push_back({"internal_mm", H5Type::kDouble, static_cast<std::size_t>(std::max(1, internal_points))});
+  return columns;
+}
+
+}  // namespace
+
+ErrorLog::Truth ErrorLog::ReadTruth(const std::string& truth_h5) {
+  const io::H5Reader file(truth_h5);
+  Truth truth;
+  truth.path = truth_h5;
+  for (auto [group, points] : {std::pair{"surface_points", &truth.surface}, std::pair{"internal_points", &truth.internal}}) {
+    const std::string prefix = std::string("/") + group;
+    points->reference_S = file.ReadMatrix(prefix + "/X_S_m").transpose();
+    points->count = static_cast<int>(points->reference_S.cols());
+    io::H5Shape shape;
+    points->xyz_C = file.Read<double>(prefix + "/xyz_C_m", &shape);
+    if (shape.size() != 3 || shape[1] != size_t(points->count) || shape[2] != 3) {
+      throw Error(prefix + "/xyz_C_m does not hold frames x " + std::to_string(points->count) + " x 3 positions",
+                  truth_h5, "use the truth file `dynaguide phantom` wrote with the scene");
+    }
+    truth.frames = static_cast<int>(shape[0]);
+  }
+  truth.surface_uv = file.Read<double>("/surface_points/uv_left_px");
+  truth.surface_visible = file.Read<std::uint8_t>("/surface_points/visible_left");
+  const size_t rows = size_t(truth.frames) * truth.surface.count;
+  if (truth.surface_uv.size() != 2 * rows || truth.surface_visible.size() != rows ||
+      truth.internal.xyz_C.size() != 3 * size_t(truth.frames) * truth.internal.count) {
+    throw Error("the surface and internal points' datasets cover different frames", truth_h5,
+                "use the truth file `dynaguide phantom` wrote with the scene");
+  }
+  return truth;
+}
+
+ErrorLog::ErrorLog(io::RunLog& log, const std::string& truth_h5, const sim::TetMesh& mesh,
+                   const io::CameraCalibration& left)
+    : truth_(ReadTruth(truth_h5)),
+      table_(log.AddTable("/errors", ErrorColumns(truth_.internal.count))),
+      left_(left),
+      surface_embedding_(mesh, truth_.surface.reference_S),
+      internal_embedding_(mesh, truth_.internal.reference_S) {}
+
+void ErrorLog::Consume(const FramePacket& packet) {
+  if (!packet.simulation || !packet.registration) return;
+  if (packet.index >= truth_.frames) {
+    throw Error("frame " + std::to_string(packet.index) + " is beyond the truth's " + std::to_string(truth_.frames) +
+                    " frames",
+                truth_.path, "use the truth recorded with this video");
+  }
+  const Eigen::Isometry3d T_C_S(packet.registration->T_C_S);
+  const Eigen::Matrix3Xd& nodes_S = packet.simulation->nodes_S_m;
+  const size_t frame = static_cast<size_t>(packet.index);
+
+  const int S = truth_.surface.count;
+  const Eigen::Matrix3Xd drawn_C = T_C_S * surface_embedding_.Rebuild(nodes_S);
+  const Eigen::Matrix2Xd true_uv = Eigen::Map<const Eigen::Matrix2Xd>(&truth_.surface_uv[2 * frame * S], 2, S);
+  const Eigen::Matrix3Xd true_C = Eigen::Map<const Eigen::Matrix3Xd>(&truth_.surface.xyz_C[3 * frame * S], 3, S);
+  const std::vector<std::uint8_t> visible(truth_.surface_visible.begin() + frame * S,
+                                          truth_.surface_visible.begin() + (frame + 1) * S);
+  const stages::overlay::SurfaceOverlayError surface =
+      stages::overlay::MeasureSurfaceOverlayError(left_, drawn_C, true_uv, true_C, visible);
+  const Moments px = MomentsOf(surface.error_px), mm = MomentsOf(surface.error_mm);
+
+  const int I = truth_.internal.count;
+  const Eigen::Matrix3Xd internal_C = T_C_S * internal_embedding_.Rebuild(nodes_S);
+  std::vector<double> internal_mm = stages::overlay::InternalErrorMm(
+      internal_C, Eigen::Map<const Eigen::Matrix3Xd>(&truth_.internal.xyz_C[3 * frame * I], 3, I));
+  const Moments internal = MomentsOf(internal_mm);
+  if (internal_mm.empty()) internal_mm.push_back(0);  // a zero-width column is not allowed: one zero stands in
+
+  table_.AppendRow({packet.index, packet.t_s, static_cast<std::int32_t>(surface.points.size()), px.mean, px.rms,
+                    px.max, mm.mean, mm.rms, mm.max, internal.mean, internal.rms, internal.max, internal_mm});
+}
+
+}  // namespace dg::pipeline

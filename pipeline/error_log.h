@@ -1,0 +1,64 @@
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "io/calibration.h"
+#include "io/h5_table.h"
+#include "io/run_log.h"
+#include "pipeline/frame_packet.h"
+#include "sim/embedding.h"
+#include "sim/tet_mesh.h"
+
+namespace dg::pipeline {
+
+// The overlay's accuracy against a phantom's ground truth (paper Table 1),
+// per simulated frame, into the run log's /errors (a consumer of the run-log
+// sink). The truth's material points are embedded once in the scene's mesh;
+// each frame they are rebuilt from the simulated nodes and brought into the
+// camera by the run's own registration, so the figures hold every error of
+// the system (registration, tracking, simulation), as the paper's do:
+//   surface: the surface points the left camera sees, the distance in the
+//            left image between where the overlay draws them and where they
+//            are (px), and in mm at their depth: surface_points, then
+//            surface_{mean,rms,max}_{px,mm};
+//   internal: the internal points' 3D distance to the truth (mm), per point
+//            (internal_mm, one column per point) and internal_{mean,rms,max}_mm.
+// Each row also has frame and t_s. Means and RMS are over the frame's points:
+// a run's figures weigh frames by their point counts (sum = mean * count).
+class ErrorLog {
+ public:
+  // truth_h5: `dynaguide phantom`'s truth.h5. left: the left camera (original pixels).
+  // @throws dg::Error for a truth file without the points' datasets.
+  ErrorLog(io::RunLog& log, const std::string& truth_h5, const sim::TetMesh& mesh,
+           const io::CameraCalibration& left);
+
+  // A frame with a simulation and a registration gets a row; others none.
+  // @throws dg::Error for a frame beyond the truth's.
+  void Consume(const FramePacket& packet);
+
+ private:
+  struct PointTruth {
+    Eigen::Matrix3Xd reference_S;  // where the points are in the scan's reference geometry
+    std::vector<double> xyz_C;     // [frame][point][xyz]
+    int count = 0;
+  };
+  struct Truth {
+    std::string path;
+    int frames = 0;
+    PointTruth surface, internal;
+    std::vector<double> surface_uv;             // [frame][point][uv], left image
+    std::vector<std::uint8_t> surface_visible;  // [frame][point], left image
+  };
+  static Truth ReadTruth(const std::string& truth_h5);
+
+  Truth truth_;
+  io::H5Table& table_;
+  io::CameraCalibration left_;
+  sim::Embedding surface_embedding_, internal_embedding_;
+};
+
+}  // namespace dg::pipeline

@@ -1,0 +1,41 @@
+#pragma once
+
+#include <memory>
+#include <vector>
+
+#include "io/h5_table.h"
+#include "io/run_log.h"
+#include "pipeline/frame_packet.h"
+#include "pipeline/simulation_stages.h"
+
+namespace dg::pipeline {
+
+// The run log's record of registration and simulation (DESIGN.md section 7),
+// a consumer of the run-log sink:
+//   /registration  the registration (io::WriteRegistrationH5), written once,
+//                  from the first frame that carries one; its attribute
+//                  `frame` is that frame (-1 when the scene gave it);
+//   /sim           one row per simulated frame: frame, t_s, step, substeps,
+//                  kinetic_energy_j, min_jacobian, constrained_nodes,
+//                  residual_rms_mm, residual_max_mm, dt_over_dt_critical and
+//                  sampled_nodes_S_m (3 per sampled node, scan frame, metres);
+//                  /sim/sampled_node_ids names the sampled nodes.
+class SimulationLog {
+ public:
+  // setup: null without a simulation (then no /sim). given: the scene's registration, or null.
+  SimulationLog(io::RunLog& log, std::shared_ptr<const SimulationSetup> setup,
+                std::shared_ptr<const io::Registration> given);
+
+  void Consume(const FramePacket& packet);
+
+  bool registered() const { return registered_; }
+  std::int64_t simulated_frames() const { return sim_ ? static_cast<std::int64_t>(sim_->rows()) : 0; }
+
+ private:
+  io::RunLog& log_;
+  io::H5Table* sim_ = nullptr;
+  std::size_t sampled_ = 0;
+  bool registered_ = false;
+};
+
+}  // namespace dg::pipeline

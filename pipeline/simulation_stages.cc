@@ -1,0 +1,137 @@
+#include "pipeline/simulation_stages.h"
+
+#include <cmath>
+
+#include "io/gmsh_reader.h"
+#include "sim/coupled_simulation.h"
+#include "sim/error.h"
+#include "sim/log.h"
+
+namespace dg::pipeline {
+namespace {
+
+std::vector<cv::Point2f> RectifiedStart(const stages::Triangulator& geometry,
+                                        const std::vector<Eigen::Vector2d>& first_uv_left_px) {
+  std::vector<cv::Point2f> start;
+  for (size_t i = 0; i < first_uv_left_px.size(); ++i) {
+    Eigen::Vector2d uv_R;
+    if (!geometry.LeftToRectified(first_uv_left_px[i], &uv_R)) {
+      throw Error("fiducial " + std::to_string(i) + "'s first-frame pixel is outside the calibrated field",
+                  "registration", "give the fiducial's pixel in the first left frame (registration.fiducials_uv)");
+    }
+    start.emplace_back(static_cast<float>(uv_R.x()), static_cast<float>(uv_R.y()));
+  }
+  return start;
+}
+
+stages::FiducialTracker::Options FiducialOptions(const stages::Triangulator& geometry, double near_m, double far_m) {
+  stages::FiducialTracker::Options options;
+  options.stereo.min_disparity_px = std::max(0.0, std::floor(geometry.DisparityAtDepth(far_m)));
+  options.stereo.max_disparity_px = std::ceil(geometry.DisparityAtDepth(near_m));
+  return options;
+}
+
+const std::vector<int>& NodeSet(const sim::TetMesh& mesh, const std::string& name, const std::string& scene_path) {
+  const auto found = mesh.node_sets.find(name);
+  if (found == mesh.node_sets.end()) {
+    throw Error("the mesh has no node set '" + name + "'", scene_path,
+                "name a physical group of the mesh in mesh.fixed_set / mesh.surface_set");
+  }
+  return found->second;
+}
+
+}  // namespace
+
+RegisterAdapter::RegisterAdapter(const stages::RegistrationStage::Options& options, stages::FiducialMotion motion,
+                                 const io::StereoCalibration& calibration, double period_s,
+                                 const std::vector<Eigen::Vector2d>& first_uv_left_px, double near_m, double far_m)
+    : geometry_(calibration),
+      tracker_(FiducialOptions(geometry_, near_m, far_m), RectifiedStart(geometry_, first_uv_left_px)),
+      stage_(options, std::move(motion), calibration, period_s) {}
+
+void RegisterAdapter::Process(FramePacket& packet) {
+  if (!result_) {
+    std::vector<stages::FiducialSighting> sightings;
+    for (const stages::FiducialObservation& seen : tracker_.Process(packet.rectified.left, packet.rectified.right)) {
+      sightings.push_back(stages::SightingFromRectified(seen, geometry_));
+    }
+    if (stage_.Process(packet.t_s, std::move(sightings))) {
+      result_ = std::make_shared<const io::Registration>(stage_.Solve().registration);
+      Logger("register").info("registered at frame {}: phase shift {:.2f} ms, residual {:.3f} / {:.3f} px",
+                               packet.index, 1e3 * result_->phase_shift_s, result_->left.mean_px,
+                               result_->right.mean_px);
+    }
+  }
+  packet.registration = result_;
+}
+
+double SimulationSetup::PhaseAt(const io::Registration& registration, double t_s) const {
+  return (t_s + registration.phase_shift_s) / registration.period_s;
+}
+
+std::shared_ptr<const SimulationSetup> LoadSimulationSetup(const io::Scene& scene) {
+  if (!scene.simulation) throw Error("the scene has no simulation", scene.path, "add a simulation: block");
+  auto setup = std::make_shared<SimulationSetup>();
+  setup->mesh = io::ReadGmsh(scene.mesh.file, scene.mesh.metres_per_unit);
+  setup->fixed_nodes = NodeSet(setup->mesh, scene.mesh.fixed_set, scene.path);
+  setup->surface_nodes = NodeSet(setup->mesh, scene.mesh.surface_set, scene.path);
+  setup->material = scene.material;
+  setup->options = *scene.simulation;
+  setup->fps = scene.video.fps;
+  if (setup->options.mode != "surface") {
+    setup->motion = stages::LoadMotionModel(scene.preoperative->motion, setup->mesh.num_nodes(),
+                                            scene.preoperative->period_s, setup->options.motion_smoothing);
+  }
+  return setup;
+}
+
+ConstraintAdapter::ConstraintAdapter(std::shared_ptr<const SimulationSetup> setup,
+                                     std::shared_ptr<const io::Registration> given)
+    : setup_(std::move(setup)), registration_(std::move(given)) {}
+
+void ConstraintAdapter::Process(FramePacket& packet) {
+  if (!registration_) registration_ = packet.registration;
+  packet.registration = registration_;
+  packet.targets.nodes.clear();
+  packet.targets.displacement_S_m.clear();
+  packet.targets.features.clear();
+  if (!registration_) return;  // before the registration: nothing to tie to
+  if (!mapper_) {
+    // The mesh's geometry at this frame: the scan's motion at the registered phase.
+    const sim::TetMesh& mesh = setup_->mesh;
+    Eigen::Matrix3Xd first = Eigen::Matrix3Xd::Zero(3, mesh.num_nodes());
+    if (setup_->motion) {
+      setup_->motion->Evaluate<double>(setup_->PhaseAt(*registration_, packet.t_s),
+                                       std::span<double>(first.data(), first.size()));
+    }
+    stages::ConstraintMapper::Options options;
+    options.max_tie_distance_m = setup_->options.max_tie_distance_m;
+    mapper_ = std::make_unique<stages::ConstraintMapper>(options, mesh.X_m, first, setup_->surface_nodes,
+                                                         setup_->fixed_nodes,
+                                                         Eigen::Isometry3d(registration_->T_C_S));
+  }
+  packet.targets = mapper_->Process(packet.tracks.points);
+}
+
+void FemAdapter::Process(FramePacket& packet) {
+  if (!packet.registration) return;  // the simulation starts at the first registered frame
+  if (!fem_) {
+    stages::FemStage::Options options;
+    options.mode = sim::ParseSimulationMode(setup_->options.mode);
+    options.dt_s = setup_->options.dt_s;
+    options.damping_per_s = setup_->options.damping_per_s;
+    options.fps = setup_->fps;
+    options.phase_at_first_frame = setup_->PhaseAt(*packet.registration, packet.t_s);
+    options.sampled_nodes = setup_->options.sampled_nodes;
+    options.concurrent = setup_->options.concurrent;
+    fem_ = std::make_unique<stages::FemStage>(options, setup_->mesh, setup_->material, setup_->motion,
+                                              setup_->fixed_nodes);
+    first_frame_ = packet.index;
+    Logger("simulate").info("simulation starts at frame {} ({} mode, dt {} ms, critical dt {:.3f} ms)", packet.index,
+                            setup_->options.mode, 1e3 * options.dt_s, 1e3 * fem_->stability().dt_critical_s);
+  }
+  packet.simulation = std::make_shared<const stages::FemFrameOutput>(
+      fem_->Process(static_cast<int>(packet.index - first_frame_), packet.targets));
+}
+
+}  // namespace dg::pipeline

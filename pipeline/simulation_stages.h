@@ -1,0 +1,102 @@
+#pragma once
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "io/calibration.h"
+#include "io/registration_file.h"
+#include "io/scene.h"
+#include "pipeline/packet_stage.h"
+#include "sim/motion_model.h"
+#include "sim/tet_mesh.h"
+#include "stages/fem_stage.h"
+#include "stages/register/registration_stage.h"
+#include "stages/track/fiducial_tracker.h"
+#include "stages/track/triangulator.h"
+
+namespace dg::pipeline {
+
+// The stages after tracking (DESIGN.md section 4): registration, constraint
+// mapping and the FEM step, as the graph sees them. The simulation starts at
+// the first frame that carries a registration: its cardiac phase is the
+// registered one, and constraints are tied to the mesh in its geometry there.
+
+// register: packet.rectified -> packet.registration. Follows the fiducials
+// (FiducialTracker, from their first-frame pixels) over the window, solves
+// once on the frame that completes it (that frame waits for the solution),
+// and hands the result to that frame and every later one. Stateful.
+class RegisterAdapter final : public PacketStage {
+ public:
+  // first_uv_left_px: the fiducials' pixels in the first left frame (original,
+  // distorted), in the scan's order. calibration: with its rectification.
+  // @throws dg::Error for a first pixel outside the calibrated field, or
+  // invalid options, motion or period (RegistrationStage).
+  RegisterAdapter(const stages::RegistrationStage::Options& options, stages::FiducialMotion motion,
+                  const io::StereoCalibration& calibration, double period_s,
+                  const std::vector<Eigen::Vector2d>& first_uv_left_px, double near_m, double far_m);
+  const std::string& name() const override { return name_; }
+  bool stateful() const override { return true; }
+  void Process(FramePacket& packet) override;
+
+ private:
+  std::string name_ = "register";
+  stages::Triangulator geometry_;
+  stages::FiducialTracker tracker_;
+  stages::RegistrationStage stage_;
+  std::shared_ptr<const io::Registration> result_;
+};
+
+// What constraint mapping and the FEM stage share: the scene's mesh, its
+// mount and surface, the material, the scan's motion (null in surface mode)
+// and the scene's simulation options.
+struct SimulationSetup {
+  sim::TetMesh mesh;
+  std::vector<int> fixed_nodes, surface_nodes;
+  sim::Material material;
+  std::shared_ptr<const sim::CyclicMotionModel> motion;
+  io::Scene::Simulation options;
+  double fps = 30;
+
+  // The motion model's phase at video time t_s under a registration.
+  double PhaseAt(const io::Registration& registration, double t_s) const;
+};
+
+// @throws dg::Error for a scene without simulation, a mesh without the named
+// fixed or surface set, or an unreadable motion model.
+std::shared_ptr<const SimulationSetup> LoadSimulationSetup(const io::Scene& scene);
+
+// constraints: packet.tracks (+ registration) -> packet.targets. Ties the
+// features to surface nodes at the first registered frame. Stateful.
+class ConstraintAdapter final : public PacketStage {
+ public:
+  // given: the scene's registration, or null when a register stage precedes.
+  ConstraintAdapter(std::shared_ptr<const SimulationSetup> setup, std::shared_ptr<const io::Registration> given);
+  const std::string& name() const override { return name_; }
+  bool stateful() const override { return true; }
+  void Process(FramePacket& packet) override;
+
+ private:
+  std::string name_ = "constraints";
+  std::shared_ptr<const SimulationSetup> setup_;
+  std::shared_ptr<const io::Registration> registration_;
+  std::unique_ptr<stages::ConstraintMapper> mapper_;
+};
+
+// simulate: packet.targets -> packet.simulation: the FEM stage advanced to the
+// frame's time, in round(1 / (fps dt)) substeps. Stateful.
+class FemAdapter final : public PacketStage {
+ public:
+  explicit FemAdapter(std::shared_ptr<const SimulationSetup> setup) : setup_(std::move(setup)) {}
+  const std::string& name() const override { return name_; }
+  bool stateful() const override { return true; }
+  void Process(FramePacket& packet) override;
+
+ private:
+  std::string name_ = "simulate";
+  std::shared_ptr<const SimulationSetup> setup_;
+  std::unique_ptr<stages::FemStage> fem_;
+  std::int64_t first_frame_ = 0;
+};
+
+}  // namespace dg::pipeline
