@@ -3,14 +3,27 @@
 #include <algorithm>
 #include <cmath>
 
-#include <tbb/parallel_invoke.h>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/partitioner.h>
 
 #include "sim/error.h"
 
 namespace dg::sim {
 namespace {
 
-int RingSlot(long long level) { return static_cast<int>(((level % 3) + 3) % 3); }
+// Runs body(c) for c in [0, count) under tbb::parallel_for; the auto
+// partitioner hands chunks to whichever thread is free, so a thread the
+// machine delays (a shared virtual core) takes fewer of them.
+template <typename Body>
+void ForEachChunk(int count, Body body) {
+  tbb::parallel_for(
+      tbb::blocked_range<int>(0, count),
+      [&](const tbb::blocked_range<int>& range) {
+        for (int c = range.begin(); c != range.end(); ++c) body(c);
+      },
+      tbb::auto_partitioner());
+}
 
 }  // namespace
 
@@ -80,26 +93,17 @@ CoupledSimulation<T>::CoupledSimulation(std::shared_ptr<const TledModel<T>> mode
   BuildSolver(u0, v0);
 
   if (has_inverse()) {
-    recovery_ = std::make_unique<ForceRecovery<T>>(model_, options_.solver);
-    resolution_ = std::make_unique<ForceResolution<T>>(model_);
-    for (auto& level : motion_levels_) level.assign(u0.size(), T(0));
     // Every recovered force is resolved in the motion model's geometry: check
     // it at set-up, finely enough to catch a fold between scan phases.
+    const ForceResolution<T> resolution(model_);
+    std::vector<T> u(u0.size());
     const int samples = 4 * motion_->phases();
     for (int k = 0; k < samples; ++k) {
       const double phase = double(k) / samples;
-      motion_->Evaluate<T>(phase, motion_levels_[0]);
-      resolution_->CheckGeometry(motion_levels_[0], "the motion model at phase " + std::to_string(phase));
+      motion_->Evaluate<T>(phase, std::span<T>(u));
+      resolution.CheckGeometry(u, "the motion model at phase " + std::to_string(phase));
     }
-    recovered_.assign(u0.size(), T(0));
-    weights_.assign(resolution_->weights_size(), T(0));
-    next_weights_.assign(resolution_->weights_size(), T(0));
-    applied_.assign(u0.size(), T(0));
-    applied_n_.assign(u0.size(), 0.0);
-    MotionAtStep(-1, motion_levels_[RingSlot(-1)]);
-    MotionAtStep(0, motion_levels_[RingSlot(0)]);
-    InverseStep(0);
-    std::swap(weights_, next_weights_);
+    inverse_ = std::make_unique<InverseSimulation<T>>(model_, motion_, options_.solver, options_.phase_at_start);
   }
 }
 
@@ -113,6 +117,7 @@ void CoupledSimulation<T>::BuildSolver(std::span<const double> u_m, std::span<co
     for (int i = 0; i < 3; ++i) conditions.prescribed_dofs.push_back(3 * a + i);
   }
   solver_ = std::make_unique<TledSolver<T>>(model_, std::move(conditions), options_.solver, &stability_);
+  DG_CHECK(solver_->substeps_per_step() == 1);  // kSubstep is refused
   solver_->SetState(u_m, v_m_s);
 }
 
@@ -141,22 +146,43 @@ void CoupledSimulation<T>::MotionAtStep(long long step, std::span<T> out) const 
 }
 
 template <typename T>
-void CoupledSimulation<T>::InverseStep(long long level) {
-  // The ring holds level - 1 and level; level + 1 takes the slot of level - 2.
-  MotionAtStep(level + 1, motion_levels_[RingSlot(level + 1)]);
-  const std::vector<T>& now = motion_levels_[RingSlot(level)];
-  recovery_->Recover(motion_levels_[RingSlot(level - 1)], now, motion_levels_[RingSlot(level + 1)], recovered_);
-  resolution_->Resolve(now, recovered_, next_weights_);
-}
-
-template <typename T>
-void CoupledSimulation<T>::ForwardStep(std::span<const double> targets_m) {
-  if (has_inverse()) {
-    resolution_->Apply(weights_, solver_->displacement(), applied_);
-    std::copy(applied_.begin(), applied_.end(), applied_n_.begin());
-    solver_->SetExternalForces(applied_n_);
+void CoupledSimulation<T>::Step(std::span<const double> targets_m) {
+  TledSolver<T>& solver = *solver_;
+  if (!has_inverse()) {
+    solver.Advance(1, targets_m);
+    return;
   }
-  solver_->Advance(1, targets_m);
+  InverseSimulation<T>& inverse = *inverse_;
+  DG_CHECK(inverse.level() == steps_);
+  solver.SetTargets(targets_m);
+  solver.SetElementLoads(inverse.weights().data());
+  const int forward_elements = solver.element_chunks(), forward_nodes = solver.node_chunks();
+  if (options_.concurrent) {
+    // Both sides' element chunks in one loop, then both sides' node chunks:
+    // TBB's auto partitioner balances them, and each pass joins once.
+    ForEachChunk(forward_elements + inverse.element_chunks(), [&](int c) {
+      if (c < forward_elements) {
+        solver.ElementChunk(c);
+      } else {
+        inverse.ElementChunk(c - forward_elements);
+      }
+    });
+    ForEachChunk(forward_nodes + inverse.node_chunks(), [&](int c) {
+      if (c < forward_nodes) {
+        solver.NodeChunk(c);
+      } else {
+        inverse.NodeChunk(c - forward_nodes);
+      }
+    });
+  } else {
+    ForEachChunk(forward_elements, [&](int c) { solver.ElementChunk(c); });
+    ForEachChunk(forward_nodes, [&](int c) { solver.NodeChunk(c); });
+    ForEachChunk(inverse.element_chunks(), [&](int c) { inverse.ElementChunk(c); });
+    ForEachChunk(inverse.node_chunks(), [&](int c) { inverse.NodeChunk(c); });
+  }
+  inverse.Finish();
+  solver.FinishStep(1.0);
+  solver.CheckStep();
 }
 
 template <typename T>
@@ -178,15 +204,7 @@ void CoupledSimulation<T>::Advance(int steps, std::span<const double> targets_m)
     for (size_t k = 0; k < count; ++k) {
       step_targets_[k] = s + 1 == steps ? targets_m[k] : target_begin_[k] + fraction * (targets_m[k] - target_begin_[k]);
     }
-    if (!has_inverse()) {
-      ForwardStep(step_targets_);
-    } else if (options_.concurrent) {
-      tbb::parallel_invoke([&] { ForwardStep(step_targets_); }, [&] { InverseStep(steps_ + 1); });
-    } else {
-      ForwardStep(step_targets_);
-      InverseStep(steps_ + 1);
-    }
-    if (has_inverse()) std::swap(weights_, next_weights_);
+    Step(step_targets_);
     ++steps_;
   }
 }

@@ -33,15 +33,18 @@ struct CoupledOptions {
 // The forward TLED simulation driven by positional constraints and/or by
 // forces recovered from a cyclic motion model, inverse and forward run step by
 // step (paper section 2.6). At step n (t = n dt):
-//   forward:  R_n = Apply(weights_n, U_n) (eq. 5 in the current geometry),
-//             U_{n+1} from the solver's update with R_n and the constraints;
-//   inverse:  R_{n+1} = Recover(Um_n, Um_{n+1}, Um_{n+2}) (eq. 4, motion model
-//             Um at phase_at_start + t / period), weights_{n+1} = Resolve(R_{n+1}, Um_{n+1}).
-// The two are independent, so with `concurrent` they run side by side
-// (tbb::parallel_invoke; each also parallel inside). Only three motion-model
-// levels and two weight sets are kept. Every partial sum runs in fixed chunks,
-// so results are bitwise the same for any thread count and for concurrent or
-// sequential order.
+//   forward:  U_{n+1} from the solver's update with the constraints and the
+//             resolved forces of weights_n applied in the current geometry
+//             U_n (eq. 5), inside the solver's element pass;
+//   inverse:  weights_{n+1} = Resolve(R_{n+1}, Um_{n+1}), and R_{n+2} =
+//             Recover(Um_{n+1}, Um_{n+2}, Um_{n+3}) (eq. 4, motion model Um at
+//             phase_at_start + t / period): InverseSimulation, one level ahead.
+// The two are independent, so with `concurrent` they run side by side: each
+// of the step's two passes (elements, then nodes) is one parallel loop over
+// both sides' fixed chunks, two joins per step, however many threads.
+// Only three motion-model levels and two weight sets are kept. Every partial
+// sum runs in fixed chunks, so results are bitwise the same for any thread
+// count and for concurrent or sequential order.
 //
 // The mesh starts in the motion model's geometry at t = 0 with its velocity
 // (at rest in the reference geometry without a motion model); the mount's
@@ -86,8 +89,7 @@ class CoupledSimulation {
 
  private:
   void BuildSolver(std::span<const double> u_m, std::span<const double> v_m_s);
-  void InverseStep(long long level);  // weights for `level`, into next_weights_
-  void ForwardStep(std::span<const double> targets_m);
+  void Step(std::span<const double> targets_m);
 
   std::shared_ptr<const TledModel<T>> model_;
   std::shared_ptr<const CyclicMotionModel> motion_;
@@ -97,15 +99,7 @@ class CoupledSimulation {
   std::unique_ptr<TledSolver<T>> solver_;
   long long steps_ = 0;
 
-  // Inverse side: motion levels n, n+1, n+2 in a ring indexed by level % 3.
-  std::unique_ptr<ForceRecovery<T>> recovery_;
-  std::unique_ptr<ForceResolution<T>> resolution_;
-  std::vector<T> motion_levels_[3];
-  std::vector<T> recovered_;
-  AlignedVector<T> weights_, next_weights_;
-  // Forward side: the resolved force in the current geometry, and as the solver takes it.
-  std::vector<T> applied_;
-  std::vector<double> applied_n_;
+  std::unique_ptr<InverseSimulation<T>> inverse_;  // its level is steps_
   std::vector<double> step_targets_, target_begin_;
 };
 

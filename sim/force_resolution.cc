@@ -116,22 +116,17 @@ WorstElement FindWorstElement(const TetMesh& mesh, const T* u) {
   return worst;
 }
 
+void ThrowDegenerateEdges(const WorstElement& worst, double min_volume_ratio, const std::string& when) {
+  char where[160];
+  std::snprintf(where, sizeof where, "element %d (volume ratio %.3g, below %.3g) in %s", worst.element,
+                worst.volume_ratio, min_volume_ratio, when.c_str());
+  throw Error("degenerate edge triple: recovered forces cannot be resolved in this element's edges", where,
+              "check or smooth the preoperative motion there (its registration may fold the mesh)");
+}
+
 template <typename T>
 ForceResolution<T>::ForceResolution(std::shared_ptr<const TledModel<T>> model) : model_(std::move(model)) {
   const TetMesh& mesh = model_->mesh();
-  constexpr int W = TledModel<T>::kLanes;
-  // Reference edges in double, then rounded once: edges of millimetres taken
-  // from float positions of centimetres would lose three digits.
-  reference_edges_.assign(size_t(model_->num_blocks()) * 9 * W, T(0));
-  for (int b = 0; b < model_->num_blocks(); ++b) {
-    const int32_t* nodes = model_->block_nodes(b);
-    for (int l = 0; l < W; ++l) {
-      for (int j = 0; j < 3; ++j) {
-        const Eigen::Vector3d edge = mesh.X_m.col(nodes[(j + 1) * W + l]) - mesh.X_m.col(nodes[l]);
-        for (int i = 0; i < 3; ++i) reference_edges_[(size_t(b) * 9 + 3 * j + i) * W + l] = static_cast<T>(edge[i]);
-      }
-    }
-  }
   inverse_count_.resize(mesh.num_nodes());
   for (int a = 0; a < mesh.num_nodes(); ++a) {
     inverse_count_[a] = T(1) / static_cast<T>(model_->gather_begin()[a + 1] - model_->gather_begin()[a]);
@@ -149,7 +144,7 @@ void ForceResolution<T>::Resolve(std::span<const T> u_model, std::span<const T> 
   ForEachBlockChunk(model, [&](int chunk, int begin, int end) {
     T smallest = T(1);
     for (int b = begin; b < end; ++b) {
-      smallest = std::min(smallest, ResolveBlock(model, b, reference_edges_.data() + size_t(b) * 9 * W,
+      smallest = std::min(smallest, ResolveBlock(model, b, model.block_reference_edges(b),
                                                  u_model.data(), forces_n.data(), inverse_count_.data(),
                                                  weights.data() + size_t(b) * 12 * W));
     }
@@ -157,7 +152,8 @@ void ForceResolution<T>::Resolve(std::span<const T> u_model, std::span<const T> 
   });
   const T smallest = *std::min_element(chunk_min_ratio_.begin(), chunk_min_ratio_.end());
   if (!(smallest >= T(kMinVolumeRatio))) {
-    ThrowDegenerate(FindWorstElement(model.mesh(), u_model.data()), "the motion model's geometry while running");
+    ThrowDegenerateEdges(FindWorstElement(model.mesh(), u_model.data()), kMinVolumeRatio,
+                         "the motion model's geometry while running");
   }
 }
 
@@ -170,7 +166,7 @@ void ForceResolution<T>::Apply(std::span<const T> weights, std::span<const T> u,
   ForEachBlockChunk(model, [&](int, int begin, int end) {
     for (int b = begin; b < end; ++b) {
       const size_t offset = size_t(b) * 12 * W;
-      ApplyBlock(model, b, reference_edges_.data() + size_t(b) * 9 * W, u.data(), weights.data() + offset,
+      ApplyBlock(model, b, model.block_reference_edges(b), u.data(), weights.data() + offset,
                  corner_forces_.data() + offset);
     }
   });
@@ -187,16 +183,7 @@ template <typename T>
 void ForceResolution<T>::CheckGeometry(std::span<const T> u, const std::string& when) const {
   DG_CHECK(u.size() == 3 * inverse_count_.size());
   const WorstElement worst = FindWorstElement(model_->mesh(), u.data());
-  if (!(worst.volume_ratio >= kMinVolumeRatio)) ThrowDegenerate(worst, when);
-}
-
-template <typename T>
-void ForceResolution<T>::ThrowDegenerate(const WorstElement& worst, const std::string& when) const {
-  char where[160];
-  std::snprintf(where, sizeof where, "element %d (volume ratio %.3g, below %.3g) in %s", worst.element,
-                worst.volume_ratio, kMinVolumeRatio, when.c_str());
-  throw Error("degenerate edge triple: recovered forces cannot be resolved in this element's edges", where,
-              "check or smooth the preoperative motion there (its registration may fold the mesh)");
+  if (!(worst.volume_ratio >= kMinVolumeRatio)) ThrowDegenerateEdges(worst, kMinVolumeRatio, when);
 }
 
 template WorstElement FindWorstElement<float>(const TetMesh&, const float*);

@@ -19,6 +19,10 @@ struct WorstElement {
 template <typename T>
 WorstElement FindWorstElement(const TetMesh& mesh, const T* u);
 
+// The error for a geometry whose edge triples cannot carry weights: the worst
+// element in it, and `when` names the geometry (e.g. "motion model, phase 0.35").
+[[noreturn]] void ThrowDegenerateEdges(const WorstElement& worst, double min_volume_ratio, const std::string& when);
+
 // Force resolution (paper eq. 5): a recovered nodal force r at node a, shared
 // equally by the n_a elements of a, is written in each element e as a
 // combination of that element's three edge vectors from a,
@@ -37,8 +41,8 @@ WorstElement FindWorstElement(const TetMesh& mesh, const T* u);
 // does not depend on the geometry, so applying the weights to any geometry's
 // edges is f_c = D' q_c: one 3x3 inverse per element serves all four corners,
 // and one edge matrix all four applications. Edges are formed as reference
-// edges (precomputed in double) plus displacement differences, which keeps
-// float's digits for millimetre edges. Storage: the kernel's block layout,
+// edges (TledModel::block_reference_edges, precomputed in double) plus
+// displacement differences, which keeps float's digits for millimetre edges. Storage: the kernel's block layout,
 // [block][corner][coordinate][lane].
 //
 // Threading: Resolve() and Apply() run under tbb::parallel_for in fixed
@@ -69,10 +73,7 @@ class ForceResolution {
   void CheckGeometry(std::span<const T> u, const std::string& when) const;
 
  private:
-  [[noreturn]] void ThrowDegenerate(const WorstElement& worst, const std::string& when) const;
-
   std::shared_ptr<const TledModel<T>> model_;
-  AlignedVector<T> reference_edges_;  // D0 per element: [block][edge][xyz][lane]
   std::vector<T> inverse_count_;    // per node: 1 / (number of its elements)
   AlignedVector<T> corner_forces_;  // Apply()'s element-major forces, as the TLED kernel's
   std::vector<T> chunk_min_ratio_;  // Resolve()'s smallest volume ratio per chunk

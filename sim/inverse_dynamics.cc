@@ -15,6 +15,24 @@ namespace {
 
 constexpr int kNodesPerChunk = 256;
 
+// Runs body(c) for c in [0, count) under tbb::parallel_for.
+template <typename Body>
+void ForEachChunk(int count, Body body) {
+  tbb::parallel_for(tbb::blocked_range<int>(0, count), [&](const tbb::blocked_range<int>& range) {
+    for (int c = range.begin(); c != range.end(); ++c) body(c);
+  });
+}
+
+template <typename T>
+[[noreturn]] void ThrowInvertedMotion(const TetMesh& mesh, const T* u) {
+  const WorstElement worst = FindWorstElement(mesh, u);
+  char where[96];
+  std::snprintf(where, sizeof where, "element %d (J = %.3g) of the motion model's geometry", worst.element,
+                worst.volume_ratio);
+  throw Error("inverted element in the preoperative motion", where,
+              "check the motion model (scan registration) there, or smooth it");
+}
+
 }  // namespace
 
 template <typename T>
@@ -44,14 +62,7 @@ void ForceRecovery<T>::Recover(std::span<const T> u_prev, std::span<const T> u, 
   const size_t n_dofs = 3 * size_t(model.num_nodes());
   DG_CHECK(u_prev.size() == n_dofs && u.size() == n_dofs && u_next.size() == n_dofs && forces_n.size() == n_dofs);
   ComputeElementForcesParallel(model, u.data(), element_forces_.data(), std::span<T>(chunk_min_J_));
-  if (!(*std::min_element(chunk_min_J_.begin(), chunk_min_J_.end()) > 0)) {
-    const WorstElement worst = FindWorstElement(model.mesh(), u.data());
-    char where[96];
-    std::snprintf(where, sizeof where, "element %d (J = %.3g) of the motion model's geometry", worst.element,
-                  worst.volume_ratio);
-    throw Error("inverted element in the preoperative motion", where,
-                "check the motion model (scan registration) there, or smooth it");
-  }
+  if (!(*std::min_element(chunk_min_J_.begin(), chunk_min_J_.end()) > 0)) ThrowInvertedMotion(model.mesh(), u.data());
   const int chunks = (model.num_nodes() + kNodesPerChunk - 1) / kNodesPerChunk;
   tbb::parallel_for(tbb::blocked_range<int>(0, chunks), [&](const tbb::blocked_range<int>& range) {
     for (int c = range.begin(); c != range.end(); ++c) {
@@ -71,5 +82,98 @@ void ForceRecovery<T>::Recover(std::span<const T> u_prev, std::span<const T> u, 
 
 template class ForceRecovery<float>;
 template class ForceRecovery<double>;
+
+template <typename T>
+InverseSimulation<T>::InverseSimulation(std::shared_ptr<const TledModel<T>> model,
+                                        std::shared_ptr<const CyclicMotionModel> motion, const SolverOptions& options,
+                                        double phase_at_start)
+    : model_(std::move(model)), motion_(std::move(motion)), dt_s_(options.dt_s), phase_at_start_(phase_at_start) {
+  if (const std::string problem = options.Validate(); !problem.empty()) {
+    throw Error("invalid inverse simulation options: " + problem, "solver options", "correct the option");
+  }
+  const int N = model_->num_nodes();
+  DG_CHECK(motion_ != nullptr && motion_->dofs() == 3 * N);
+  const double dt = options.dt_s, alpha = options.damping_per_s;
+  const double A = 2.0 / (2.0 + alpha * dt);
+  increment_decay_ = static_cast<T>((2.0 - alpha * dt) / (2.0 + alpha * dt));
+  const std::vector<double>& mass = model_->lumped_mass_kg();
+  inertia_gain_.resize(N);
+  gravity_force_.resize(3 * size_t(N));
+  inverse_count_.resize(N);
+  for (int a = 0; a < N; ++a) {
+    inertia_gain_[a] = static_cast<T>(mass[a] / (A * dt * dt));
+    for (int i = 0; i < 3; ++i) gravity_force_[3 * a + i] = static_cast<T>(mass[a] * options.gravity_m_s2[i]);
+    inverse_count_[a] = T(1) / static_cast<T>(model_->gather_begin()[a + 1] - model_->gather_begin()[a]);
+  }
+  for (auto& level : motion_levels_) level.assign(3 * size_t(N), T(0));
+  element_forces_.assign(model_->force_array_size(), T(0));
+  edge_inverse_.assign(size_t(model_->num_blocks()) * 9 * TledModel<T>::kLanes, T(0));
+  scaled_forces_.assign(3 * size_t(N), T(0));
+  weights_.assign(model_->force_array_size(), T(0));
+  next_weights_.assign(model_->force_array_size(), T(0));
+  chunk_min_J_.assign(ElementChunks(*model_), T(1));
+  chunk_min_ratio_.assign(ElementChunks(*model_), T(1));
+  chunk_node_count_ = (N + kNodesPerChunk - 1) / kNodesPerChunk;
+  // Level 0's forces need Um_-1 and Um_0 (the node pass adds Um_1); two passes
+  // then bring the weights of level 0 (the first pass resolves zeros).
+  pending_level_ = 0;
+  motion_->Evaluate<T>(PhaseOf(-1), std::span<T>(motion_levels_[Slot(-1)]));
+  motion_->Evaluate<T>(PhaseOf(0), std::span<T>(motion_levels_[Slot(0)]));
+  Advance();
+  Advance();
+}
+
+template <typename T>
+void InverseSimulation<T>::Advance() {
+  ForEachChunk(element_chunks(), [&](int c) { ElementChunk(c); });
+  ForEachChunk(node_chunks(), [&](int c) { NodeChunk(c); });
+  Finish();
+}
+
+template <typename T>
+void InverseSimulation<T>::ElementChunk(int chunk) {
+  const int begin = chunk * kBlocksPerChunk;
+  const int end = std::min(begin + kBlocksPerChunk, model_->num_blocks());
+  ResolveBuffers<T> resolve{edge_inverse_.data(), scaled_forces_.data(), next_weights_.data()};
+  chunk_min_J_[chunk] = ComputeElementForcesAndResolve(*model_, motion_levels_[Slot(pending_level_)].data(), &resolve,
+                                                       element_forces_.data(), begin, end);
+  chunk_min_ratio_[chunk] = resolve.min_volume_ratio;
+}
+
+template <typename T>
+void InverseSimulation<T>::NodeChunk(int chunk) {
+  // R = F(U) + M / (A dt^2) [ (U+ - U) - (2 - alpha dt)/(2 + alpha dt) (U - U-) ] - M g (eq. 4, see ForceRecovery).
+  const TledModel<T>& model = *model_;
+  const int begin = chunk * kNodesPerChunk;
+  const int end = std::min(begin + kNodesPerChunk, model.num_nodes());
+  T* __restrict u_next = motion_levels_[Slot(pending_level_ + 1)].data();
+  const T* __restrict u = motion_levels_[Slot(pending_level_)].data();
+  const T* __restrict u_prev = motion_levels_[Slot(pending_level_ - 1)].data();
+  motion_->Evaluate<T>(PhaseOf(pending_level_ + 1), 3 * begin, std::span<T>(u_next + 3 * begin, 3 * size_t(end - begin)));
+  for (int a = begin; a < end; ++a) {
+    T f[3];
+    GatherNodalForce(model, element_forces_.data(), a, f);
+    for (int i = 0; i < 3; ++i) {
+      const size_t dof = 3 * size_t(a) + i;
+      const T increment = (u_next[dof] - u[dof]) - increment_decay_ * (u[dof] - u_prev[dof]);
+      scaled_forces_[dof] = (f[i] + inertia_gain_[a] * increment - gravity_force_[dof]) * inverse_count_[a];
+    }
+  }
+}
+
+template <typename T>
+void InverseSimulation<T>::Finish() {
+  const T* u = motion_levels_[Slot(pending_level_)].data();
+  if (!(*std::min_element(chunk_min_J_.begin(), chunk_min_J_.end()) > 0)) ThrowInvertedMotion(model_->mesh(), u);
+  constexpr double kMinRatio = ForceResolution<T>::kMinVolumeRatio;
+  if (!(*std::min_element(chunk_min_ratio_.begin(), chunk_min_ratio_.end()) >= T(kMinRatio))) {
+    ThrowDegenerateEdges(FindWorstElement(model_->mesh(), u), kMinRatio, "the motion model's geometry while running");
+  }
+  std::swap(weights_, next_weights_);
+  ++pending_level_;
+}
+
+template class InverseSimulation<float>;
+template class InverseSimulation<double>;
 
 }  // namespace dg::sim

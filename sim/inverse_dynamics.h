@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "sim/aligned_vector.h"
+#include "sim/motion_model.h"
 #include "sim/tled_model.h"
 #include "sim/tled_solver.h"
 
@@ -48,5 +49,77 @@ class ForceRecovery {
 
 extern template class ForceRecovery<float>;
 extern template class ForceRecovery<double>;
+
+// The inverse side of the coupled simulation (paper section 2.6): level by
+// level (level n at t = n dt, the motion model Um at phase_at_start + t /
+// period), the weights (eq. 5, ForceResolution's layout) of the forces that
+// ForceRecovery would recover from Um_{n-1}, Um_n, Um_{n+1} (eq. 4), resolved
+// in the geometry X + Um_n. The same arithmetic as ForceRecovery followed by
+// ForceResolution::Resolve, arranged for speed:
+//  - an element pass at Um_{n+2} computes the internal forces there and the
+//    edge inverses D^-1, and with the inverses of Um_{n+1} (stored by the
+//    previous pass) resolves the forces of n + 1 into the weights of n + 1:
+//    one pass over the elements instead of two, no edge matrix formed twice;
+//  - a node pass gathers the forces of n + 2, evaluates Um_{n+3} for its own
+//    nodes only (the slot Um_n leaves), and stores r / n_a, the share of each
+//    element, so the resolution multiplies by no count.
+// Three motion levels, one set of edge inverses and two weight sets are kept.
+//
+// Threading: a level's parts are ElementChunk(c) for every c < element_chunks(),
+// then NodeChunk(c) for every c < node_chunks() (each in any order and on any
+// thread: every chunk writes only its own part), then Finish(); Advance() runs
+// them under tbb::parallel_for. A caller may run them beside other work, as the
+// coupled simulation runs the forward step's. Results do not depend on the
+// order or the thread count. Nothing allocates after construction.
+template <typename T>
+class InverseSimulation {
+ public:
+  // Uses options.dt_s, damping_per_s and gravity_m_s2.
+  // @pre motion->dofs() == 3 * model->num_nodes()
+  // @throws dg::Error for invalid options, or as Finish() does for levels 0 to 2.
+  InverseSimulation(std::shared_ptr<const TledModel<T>> model, std::shared_ptr<const CyclicMotionModel> motion,
+                    const SolverOptions& options, double phase_at_start);
+
+  // The level whose weights weights() holds (0 after construction).
+  long long level() const { return pending_level_ - 2; }
+  std::span<const T> weights() const { return {weights_.data(), weights_.size()}; }
+
+  // Moves to the next level (all parts under tbb::parallel_for).
+  // @throws dg::Error as Finish() does.
+  void Advance();
+
+  int element_chunks() const { return static_cast<int>(chunk_min_J_.size()); }
+  int node_chunks() const { return static_cast<int>(chunk_node_count_); }
+  void ElementChunk(int chunk);
+  void NodeChunk(int chunk);
+  // @throws dg::Error if an element of the motion model's geometry at level() + 2
+  // is inverted (J <= 0) or degenerate (volume ratio below
+  // ForceResolution::kMinVolumeRatio), naming it; the simulation cannot go on after it.
+  void Finish();
+
+ private:
+  int Slot(long long level) const { return static_cast<int>(((level % 3) + 3) % 3); }
+  double PhaseOf(long long level) const { return motion_->PhaseAt(double(level) * dt_s_, phase_at_start_); }
+
+  std::shared_ptr<const TledModel<T>> model_;
+  std::shared_ptr<const CyclicMotionModel> motion_;
+  double dt_s_ = 0, phase_at_start_ = 0;
+  std::vector<T> inertia_gain_;   // per node: M_a / (A dt^2)
+  std::vector<T> gravity_force_;  // per node and axis: M_a g
+  std::vector<T> inverse_count_;  // per node: 1 / (number of its elements)
+  T increment_decay_ = 0;
+  // The level whose forces the next element pass computes; its weights follow two levels on.
+  long long pending_level_ = 0;
+  std::vector<T> motion_levels_[3];  // ring indexed by level % 3
+  AlignedVector<T> element_forces_;  // at the pending level
+  AlignedVector<T> edge_inverse_;    // rows of D^-1 at the last element pass's level
+  std::vector<T> scaled_forces_;     // r / n_a (3 per node) at the level before the pending one
+  AlignedVector<T> weights_, next_weights_;
+  std::vector<T> chunk_min_J_, chunk_min_ratio_;
+  int chunk_node_count_ = 0;
+};
+
+extern template class InverseSimulation<float>;
+extern template class InverseSimulation<double>;
 
 }  // namespace dg::sim

@@ -70,6 +70,12 @@ CyclicMotionModel::CyclicMotionModel(const std::vector<double>& phase_displaceme
 template <typename T>
 void CyclicMotionModel::Evaluate(double phase, std::span<T> out) const {
   DG_CHECK(out.size() == size_t(dofs_));
+  Evaluate(phase, 0, out);
+}
+
+template <typename T>
+void CyclicMotionModel::Evaluate(double phase, int first_dof, std::span<T> out) const {
+  DG_CHECK(first_dof >= 0 && size_t(first_dof) + out.size() <= size_t(dofs_));
   const double s = (phase - std::floor(phase)) * phases_;
   int i = static_cast<int>(std::floor(s));
   const double t = s - i;
@@ -77,14 +83,17 @@ void CyclicMotionModel::Evaluate(double phase, std::span<T> out) const {
   double b[4];
   CubicBasis(t, b);
   const double* c[4];
-  for (int m = 0; m < 4; ++m) c[m] = control_.col((i + phases_ - 1 + m) % phases_).data();
+  for (int m = 0; m < 4; ++m) c[m] = control_.col((i + phases_ - 1 + m) % phases_).data() + first_dof;
   T* __restrict u = out.data();
-  for (int d = 0; d < dofs_; ++d) {
+  const int count = static_cast<int>(out.size());
+  for (int d = 0; d < count; ++d) {
     u[d] = static_cast<T>(b[0] * c[0][d] + b[1] * c[1][d] + b[2] * c[2][d] + b[3] * c[3][d]);
   }
 }
 
 template void CyclicMotionModel::Evaluate<float>(double, std::span<float>) const;
 template void CyclicMotionModel::Evaluate<double>(double, std::span<double>) const;
+template void CyclicMotionModel::Evaluate<float>(double, int, std::span<float>) const;
+template void CyclicMotionModel::Evaluate<double>(double, int, std::span<double>) const;
 
 }  // namespace dg::sim

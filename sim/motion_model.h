@@ -41,6 +41,11 @@ class CyclicMotionModel {
   // @pre out.size() == dofs()
   template <typename T>
   void Evaluate(double phase, std::span<T> out) const;
+  // The same for dofs [first_dof, first_dof + out.size()) only, bitwise equal
+  // to those of Evaluate(): a caller may evaluate a node range where it uses it.
+  // @pre the range lies within [0, dofs())
+  template <typename T>
+  void Evaluate(double phase, int first_dof, std::span<T> out) const;
 
   // Phase at time t_s of a clock whose phase was phase_at_zero at t = 0.
   double PhaseAt(double t_s, double phase_at_zero) const { return phase_at_zero + t_s / period_s_; }

@@ -27,20 +27,36 @@ T InverseCubeRoot(T x) {
   return y;
 }
 
-template <typename T>
-T ComputeElementForces(const TledModel<T>& model, const T* __restrict u, T* __restrict forces,
-                       int block_begin, int block_end) {
+namespace {
+
+// What the element pass does besides the internal forces (see tled_kernel.h).
+enum class PassMode { kForces, kLessLoads, kResolve };
+
+// The element pass over blocks [block_begin, block_end); `loads` (kLessLoads)
+// and `resolve` (kResolve) are used in their mode only. Returns the smallest J.
+template <typename T, PassMode kMode>
+T ElementPass(const TledModel<T>& model, const T* __restrict u, T* __restrict forces, int block_begin,
+              int block_end, const T* __restrict load_weights, ResolveBuffers<T>* resolve) {
   constexpr int W = TledModel<T>::kLanes;
   const T mu = model.shear_modulus();
   const T kappa = model.bulk_modulus();
   T min_J = std::numeric_limits<T>::max();
+  T min_ratio = std::numeric_limits<T>::max();
+  T* __restrict edge_inverse = kMode == PassMode::kResolve ? resolve->edge_inverse : nullptr;
+  const T* __restrict scaled_forces = kMode == PassMode::kResolve ? resolve->scaled_forces_n : nullptr;
+  T* __restrict weights = kMode == PassMode::kResolve ? resolve->weights : nullptr;
 
   for (int b = block_begin; b < block_end; ++b) {
     const int32_t* __restrict nodes = model.block_nodes(b);
     const T* __restrict dN = model.block_shape_gradients(b);
     const T* __restrict V0 = model.block_volumes(b);
+    const T* __restrict D0 = model.block_reference_edges(b);
     T* __restrict f = forces + size_t(b) * 12 * W;
+    const T* __restrict q_load = kMode == PassMode::kLessLoads ? load_weights + size_t(b) * 12 * W : nullptr;
+    T* __restrict Dinv = kMode == PassMode::kResolve ? edge_inverse + size_t(b) * 9 * W : nullptr;
+    T* __restrict q_out = kMode == PassMode::kResolve ? weights + size_t(b) * 12 * W : nullptr;
     alignas(64) T J_lane[W];
+    alignas(64) T ratio_lane[W];
 
 #pragma GCC ivdep
     for (int l = 0; l < W; ++l) {
@@ -85,18 +101,70 @@ T ComputeElementForces(const TledModel<T>& model, const T* __restrict u, T* __re
       const T P20 = va * F20 + vs * cof20, P21 = va * F21 + vs * cof21, P22 = va * F22 + vs * cof22;
 
       // f_c = V0 P dN_c; corner 0 balances the other three.
-      const T f1x = P00 * g1x + P01 * g1y + P02 * g1z;
-      const T f1y = P10 * g1x + P11 * g1y + P12 * g1z;
-      const T f1z = P20 * g1x + P21 * g1y + P22 * g1z;
-      const T f2x = P00 * g2x + P01 * g2y + P02 * g2z;
-      const T f2y = P10 * g2x + P11 * g2y + P12 * g2z;
-      const T f2z = P20 * g2x + P21 * g2y + P22 * g2z;
-      const T f3x = P00 * g3x + P01 * g3y + P02 * g3z;
-      const T f3y = P10 * g3x + P11 * g3y + P12 * g3z;
-      const T f3z = P20 * g3x + P21 * g3y + P22 * g3z;
-      f[0 * W + l] = -(f1x + f2x + f3x);
-      f[1 * W + l] = -(f1y + f2y + f3y);
-      f[2 * W + l] = -(f1z + f2z + f3z);
+      T f1x = P00 * g1x + P01 * g1y + P02 * g1z;
+      T f1y = P10 * g1x + P11 * g1y + P12 * g1z;
+      T f1z = P20 * g1x + P21 * g1y + P22 * g1z;
+      T f2x = P00 * g2x + P01 * g2y + P02 * g2z;
+      T f2y = P10 * g2x + P11 * g2y + P12 * g2z;
+      T f2z = P20 * g2x + P21 * g2y + P22 * g2z;
+      T f3x = P00 * g3x + P01 * g3y + P02 * g3z;
+      T f3y = P10 * g3x + P11 * g3y + P12 * g3z;
+      T f3z = P20 * g3x + P21 * g3y + P22 * g3z;
+      T f0x = -(f1x + f2x + f3x), f0y = -(f1y + f2y + f3y), f0z = -(f1z + f2z + f3z);
+
+      if constexpr (kMode != PassMode::kForces) {
+        // The current edges D = D0 + (u_j - u_0), columns e1, e2, e3.
+        const T e1x = D0[0 * W + l] + d1x, e1y = D0[1 * W + l] + d1y, e1z = D0[2 * W + l] + d1z;
+        const T e2x = D0[3 * W + l] + d2x, e2y = D0[4 * W + l] + d2y, e2z = D0[5 * W + l] + d2z;
+        const T e3x = D0[6 * W + l] + d3x, e3y = D0[7 * W + l] + d3y, e3z = D0[8 * W + l] + d3z;
+        if constexpr (kMode == PassMode::kLessLoads) {
+          // Corner c's resolved load D q_c (eq. 5 in the current geometry), taken off its force.
+          auto load = [&](int c, T& fx, T& fy, T& fz) {
+            const T q1 = q_load[(3 * c) * W + l], q2 = q_load[(3 * c + 1) * W + l], q3 = q_load[(3 * c + 2) * W + l];
+            fx -= e1x * q1 + e2x * q2 + e3x * q3;
+            fy -= e1y * q1 + e2y * q2 + e3y * q3;
+            fz -= e1z * q1 + e2z * q2 + e3z * q3;
+          };
+          load(0, f0x, f0y, f0z);
+          load(1, f1x, f1y, f1z);
+          load(2, f2x, f2y, f2z);
+          load(3, f3x, f3y, f3z);
+        } else {
+          // Resolve the previous level's forces with its D^-1 (rows stored in Dinv),
+          // q_c = D^-1 (r_c / n_c), then store this geometry's D^-1 in its place.
+          const T r00 = Dinv[0 * W + l], r01 = Dinv[1 * W + l], r02 = Dinv[2 * W + l];
+          const T r10 = Dinv[3 * W + l], r11 = Dinv[4 * W + l], r12 = Dinv[5 * W + l];
+          const T r20 = Dinv[6 * W + l], r21 = Dinv[7 * W + l], r22 = Dinv[8 * W + l];
+          const int corner_dof[4] = {n0, n1, n2, n3};
+          for (int c = 0; c < 4; ++c) {
+            const int n = corner_dof[c];
+            const T rx = scaled_forces[n], ry = scaled_forces[n + 1], rz = scaled_forces[n + 2];
+            q_out[(3 * c) * W + l] = r00 * rx + r01 * ry + r02 * rz;
+            q_out[(3 * c + 1) * W + l] = r10 * rx + r11 * ry + r12 * rz;
+            q_out[(3 * c + 2) * W + l] = r20 * rx + r21 * ry + r22 * rz;
+          }
+          // Rows of D^-1 times det(D): e2 x e3, e3 x e1, e1 x e2.
+          const T a0 = e2y * e3z - e2z * e3y, a1 = e2z * e3x - e2x * e3z, a2 = e2x * e3y - e2y * e3x;
+          const T b0 = e3y * e1z - e3z * e1y, b1 = e3z * e1x - e3x * e1z, b2 = e3x * e1y - e3y * e1x;
+          const T c0 = e1y * e2z - e1z * e2y, c1 = e1z * e2x - e1x * e2z, c2 = e1x * e2y - e1y * e2x;
+          const T det = e1x * a0 + e1y * a1 + e1z * a2;
+          const bool real = v > 0;  // padding lanes have no volume and no incidences
+          ratio_lane[l] = real ? det / (6 * v) : T(1);
+          const T inv_det = real ? T(1) / det : T(0);
+          Dinv[0 * W + l] = a0 * inv_det;
+          Dinv[1 * W + l] = a1 * inv_det;
+          Dinv[2 * W + l] = a2 * inv_det;
+          Dinv[3 * W + l] = b0 * inv_det;
+          Dinv[4 * W + l] = b1 * inv_det;
+          Dinv[5 * W + l] = b2 * inv_det;
+          Dinv[6 * W + l] = c0 * inv_det;
+          Dinv[7 * W + l] = c1 * inv_det;
+          Dinv[8 * W + l] = c2 * inv_det;
+        }
+      }
+      f[0 * W + l] = f0x;
+      f[1 * W + l] = f0y;
+      f[2 * W + l] = f0z;
       f[3 * W + l] = f1x;
       f[4 * W + l] = f1y;
       f[5 * W + l] = f1z;
@@ -109,8 +177,31 @@ T ComputeElementForces(const TledModel<T>& model, const T* __restrict u, T* __re
       J_lane[l] = J;
     }
     for (int l = 0; l < W; ++l) min_J = std::min(min_J, J_lane[l]);
+    if constexpr (kMode == PassMode::kResolve) {
+      for (int l = 0; l < W; ++l) min_ratio = std::min(min_ratio, ratio_lane[l]);
+    }
   }
+  if constexpr (kMode == PassMode::kResolve) resolve->min_volume_ratio = min_ratio;
   return min_J;
+}
+
+}  // namespace
+
+template <typename T>
+T ComputeElementForces(const TledModel<T>& model, const T* u, T* forces, int block_begin, int block_end) {
+  return ElementPass<T, PassMode::kForces>(model, u, forces, block_begin, block_end, nullptr, nullptr);
+}
+
+template <typename T>
+T ComputeElementForcesLessLoads(const TledModel<T>& model, const T* u, const T* load_weights, T* forces,
+                                int block_begin, int block_end) {
+  return ElementPass<T, PassMode::kLessLoads>(model, u, forces, block_begin, block_end, load_weights, nullptr);
+}
+
+template <typename T>
+T ComputeElementForcesAndResolve(const TledModel<T>& model, const T* u, ResolveBuffers<T>* resolve, T* forces,
+                                 int block_begin, int block_end) {
+  return ElementPass<T, PassMode::kResolve>(model, u, forces, block_begin, block_end, nullptr, resolve);
 }
 
 template <typename T>
@@ -132,6 +223,14 @@ void ComputeElementForcesParallel(const TledModel<T>& model, const T* u, T* forc
 template float InverseCubeRoot<float>(float);
 template double InverseCubeRoot<double>(double);
 template float ComputeElementForces<float>(const TledModel<float>&, const float*, float*, int, int);
+template float ComputeElementForcesLessLoads<float>(const TledModel<float>&, const float*, const float*, float*, int,
+                                                    int);
+template double ComputeElementForcesLessLoads<double>(const TledModel<double>&, const double*, const double*, double*,
+                                                      int, int);
+template float ComputeElementForcesAndResolve<float>(const TledModel<float>&, const float*, ResolveBuffers<float>*,
+                                                     float*, int, int);
+template double ComputeElementForcesAndResolve<double>(const TledModel<double>&, const double*,
+                                                       ResolveBuffers<double>*, double*, int, int);
 template double ComputeElementForces<double>(const TledModel<double>&, const double*, double*, int,
                                              int);
 template void ComputeElementForcesParallel<float>(const TledModel<float>&, const float*, float*, std::span<float>);

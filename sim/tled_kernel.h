@@ -20,6 +20,33 @@ template <typename T>
 T ComputeElementForces(const TledModel<T>& model, const T* u, T* forces, int block_begin,
                        int block_end);
 
+// The same pass less each element's resolved loads (force resolution, paper
+// eq. 5; see force_resolution.h for the weights' form): corner c of an element
+// receives D q_c, D = D0 + (u_j - u_0) its edges in the geometry X + u and q_c
+// its weights in load_weights ([block][corner][xyz][lane]); `forces` gets
+// f_c - D q_c, so a node's gathered sum is F(U) less the applied load. Folding
+// the load into this pass reuses the edge displacements the forces need.
+template <typename T>
+T ComputeElementForcesLessLoads(const TledModel<T>& model, const T* u, const T* load_weights, T* forces,
+                                int block_begin, int block_end);
+
+// The inverse simulation's element pass (paper eqs. 4 and 5, one level apart):
+// besides the forces at u, it resolves the previous level's nodal forces with
+// the previous level's edge inverses, q_c = D^-1 (r_c / n_c), into `weights`,
+// then overwrites `edge_inverse` with the rows of D^-1 of the geometry X + u
+// (zero for padding) and sets min_volume_ratio to the blocks' smallest
+// det(D) / det(D0) (1 for padding).
+template <typename T>
+struct ResolveBuffers {
+  T* edge_inverse = nullptr;            // [block][row][column][lane], in and out
+  const T* scaled_forces_n = nullptr;   // per node and axis: r / n_a of the previous level
+  T* weights = nullptr;                 // [block][corner][xyz][lane], out
+  T min_volume_ratio = 1;               // out
+};
+template <typename T>
+T ComputeElementForcesAndResolve(const TledModel<T>& model, const T* u, ResolveBuffers<T>* resolve, T* forces,
+                                 int block_begin, int block_end);
+
 // Blocks per unit of parallel work in the element pass. Partial results (the
 // smallest J) are kept per chunk, so they combine in the same order whatever
 // the thread count.

@@ -33,6 +33,7 @@ TledModel<T>::TledModel(const TetMesh& mesh, const Material& material)
   nodes_.assign(slots * 4, 0);
   dN_dX_.assign(slots * 9, T(0));
   volume_m3_.assign(slots, T(0));
+  edges_m_.assign(slots * 9, T(0));
   mass_kg_.assign(mesh_.num_nodes(), 0.0);
 
   for (size_t slot = 0; slot < size_t(E); ++slot) {
@@ -46,7 +47,10 @@ TledModel<T>::TledModel(const TetMesh& mesh, const Material& material)
     const Eigen::Matrix3d dN = edges.inverse();  // row c: dN_{c+1}/dX
     for (int c = 0; c < 4; ++c) nodes_[(b * 4 + c) * kLanes + l] = mesh_.tets(c, e);
     for (int c = 0; c < 3; ++c) {
-      for (int j = 0; j < 3; ++j) dN_dX_[(b * 9 + c * 3 + j) * kLanes + l] = static_cast<T>(dN(c, j));
+      for (int j = 0; j < 3; ++j) {
+        dN_dX_[(b * 9 + c * 3 + j) * kLanes + l] = static_cast<T>(dN(c, j));
+        edges_m_[(b * 9 + c * 3 + j) * kLanes + l] = static_cast<T>(edges(j, c));
+      }
     }
     volume_m3_[b * kLanes + l] = static_cast<T>(volume);
     for (int c = 0; c < 4; ++c) mass_kg_[mesh_.tets(c, e)] += material_.density_kg_m3 * volume / 4.0;

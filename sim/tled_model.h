@@ -45,6 +45,11 @@ class TledModel {
   const T* block_shape_gradients(int b) const { return dN_dX_.data() + size_t(b) * 9 * kLanes; }
   // Reference volumes of block b: [lane], m^3 (0 for padding).
   const T* block_volumes(int b) const { return volume_m3_.data() + size_t(b) * kLanes; }
+  // Reference edges X_j - X_0 (j = 1..3) of block b: [j - 1][xyz][lane], m, computed in
+  // double and rounded once (edges of millimetres taken from float positions of
+  // centimetres would lose three digits); zero for padding. With a displacement
+  // difference u_j - u_0 added, the edges of any deformed geometry (force resolution).
+  const T* block_reference_edges(int b) const { return edges_m_.data() + size_t(b) * 9 * kLanes; }
 
   // Size of the element-major force array the kernel writes: [block][corner][xyz][lane].
   size_t force_array_size() const { return size_t(num_blocks_) * 12 * kLanes; }
@@ -63,6 +68,7 @@ class TledModel {
   AlignedVector<int32_t> nodes_;
   AlignedVector<T> dN_dX_;
   AlignedVector<T> volume_m3_;
+  AlignedVector<T> edges_m_;
   std::vector<int32_t> gather_begin_;
   std::vector<int32_t> gather_offsets_;
   std::vector<double> mass_kg_;

@@ -179,7 +179,7 @@ void TledSolver<T>::SetState(std::span<const double> u_m, std::span<const double
 }
 
 template <typename T>
-void TledSolver<T>::Advance(int steps, std::span<const double> targets_m) {
+void TledSolver<T>::SetTargets(std::span<const double> targets_m) {
   if (targets_m.size() != target_end_.size()) {
     throw Error("got " + std::to_string(targets_m.size()) + " prescribed targets for " +
                     std::to_string(target_end_.size()) + " prescribed degrees of freedom",
@@ -198,6 +198,11 @@ void TledSolver<T>::Advance(int steps, std::span<const double> targets_m) {
     target_begin_[k] = u_[conditions_.prescribed_dofs[k]];
     target_end_[k] = targets_m[k];
   }
+}
+
+template <typename T>
+void TledSolver<T>::Advance(int steps, std::span<const double> targets_m) {
+  SetTargets(targets_m);
   const int total = steps * substeps_;
   for (int s = 0; s < total; ++s) {
     Step(double(s + 1) / total);
@@ -207,39 +212,63 @@ void TledSolver<T>::Advance(int steps, std::span<const double> targets_m) {
 
 template <typename T>
 void TledSolver<T>::Step(double fraction_end) {
-  const TledModel<T>& model = *model_;
-  // Element pass: forces of every element at U.
-  ComputeElementForcesParallel(model, u_.data(), element_forces_.data(), std::span<T>(chunk_min_J_));
-
-  // Node pass: gather and central-difference update of every dof as if free,
-  // with the kinetic energy of the free dofs (sum of m v^2, scaled below).
+  // TBB's auto partitioner hands the chunks out, so a thread that the machine
+  // delays (a shared virtual core) takes fewer of them instead of holding up the step.
   tbb::parallel_for(
-      tbb::blocked_range<int>(0, static_cast<int>(chunk_kinetic_.size())),
+      tbb::blocked_range<int>(0, element_chunks()),
       [&](const tbb::blocked_range<int>& chunks) {
-        for (int c = chunks.begin(); c != chunks.end(); ++c) {
-          const int begin = c * kNodesPerChunk;
-          const int end = std::min(begin + kNodesPerChunk, model.num_nodes());
-          double twice_kinetic = 0;
-          for (int a = begin; a < end; ++a) {
-            T f[3];
-            GatherNodalForce(model, element_forces_.data(), a, f);
-            T m_v2 = 0;
-            for (int i = 0; i < 3; ++i) {
-              const int dof = 3 * a + i;
-              internal_force_[dof] = f[i];
-              const T next = u_[dof] + force_gain_[a] * (external_force_[dof] - f[i]) + gravity_term_[i] +
-                             increment_decay_ * (u_[dof] - u_prev_[dof]);
-              u_next_[dof] = next;
-              const T v = next - u_prev_[dof];
-              m_v2 += free_mass_[dof] * v * v;
-            }
-            twice_kinetic += m_v2;
-          }
-          chunk_kinetic_[c] = twice_kinetic;
-        }
+        for (int c = chunks.begin(); c != chunks.end(); ++c) ElementChunk(c);
       },
       tbb::auto_partitioner());
+  tbb::parallel_for(
+      tbb::blocked_range<int>(0, node_chunks()),
+      [&](const tbb::blocked_range<int>& chunks) {
+        for (int c = chunks.begin(); c != chunks.end(); ++c) NodeChunk(c);
+      },
+      tbb::auto_partitioner());
+  FinishStep(fraction_end);
+}
 
+template <typename T>
+void TledSolver<T>::ElementChunk(int chunk) {
+  // Forces (less the element loads) of every element at U.
+  const int begin = chunk * kBlocksPerChunk;
+  const int end = std::min(begin + kBlocksPerChunk, model_->num_blocks());
+  chunk_min_J_[chunk] =
+      element_load_weights_
+          ? ComputeElementForcesLessLoads(*model_, u_.data(), element_load_weights_, element_forces_.data(), begin, end)
+          : ComputeElementForces(*model_, u_.data(), element_forces_.data(), begin, end);
+}
+
+template <typename T>
+void TledSolver<T>::NodeChunk(int chunk) {
+  // Gather and central-difference update of every dof as if free, with the
+  // kinetic energy of the free dofs (sum of m v^2, scaled in FinishStep).
+  const TledModel<T>& model = *model_;
+  const int begin = chunk * kNodesPerChunk;
+  const int end = std::min(begin + kNodesPerChunk, model.num_nodes());
+  double twice_kinetic = 0;
+  for (int a = begin; a < end; ++a) {
+    T f[3];
+    GatherNodalForce(model, element_forces_.data(), a, f);
+    T m_v2 = 0;
+    for (int i = 0; i < 3; ++i) {
+      const int dof = 3 * a + i;
+      internal_force_[dof] = f[i];
+      const T next = u_[dof] + force_gain_[a] * (external_force_[dof] - f[i]) + gravity_term_[i] +
+                     increment_decay_ * (u_[dof] - u_prev_[dof]);
+      u_next_[dof] = next;
+      const T v = next - u_prev_[dof];
+      m_v2 += free_mass_[dof] * v * v;
+    }
+    twice_kinetic += m_v2;
+  }
+  chunk_kinetic_[chunk] = twice_kinetic;
+}
+
+template <typename T>
+void TledSolver<T>::FinishStep(double fraction_end) {
+  const TledModel<T>& model = *model_;
   // Constrained dofs (few): overwrite, then the support's reaction
   // M a + alpha M v + F - R and their kinetic energy.
   const double dt = internal_dt_s();

@@ -80,6 +80,12 @@ class TledSolver {
   // @throws dg::Error if a value is not finite.
   void SetExternalForces(std::span<const double> forces_n);
 
+  // Resolved element loads (force resolution, paper eq. 5): weights in
+  // ForceResolution's layout, applied in the current geometry from the next
+  // step on, inside the element pass (ComputeElementForcesLessLoads); null
+  // removes them. The caller keeps the array alive and unchanged while stepping.
+  void SetElementLoads(const T* weights) { element_load_weights_ = weights; }
+
   // Starts from displacement u (3 per node, m) and velocity v (m/s): U = u,
   // U- = u - v dt. @throws dg::Error on a size mismatch or non-finite value.
   void SetState(std::span<const double> u_m, std::span<const double> v_m_s);
@@ -98,7 +104,7 @@ class TledSolver {
   // Displacement U- of the step before (3 per node), metres: with displacement(),
   // the whole state, e.g. to carry it into a solver with other boundary conditions.
   std::span<const T> previous_displacement() const { return {u_prev_.data(), u_prev_.size()}; }
-  // Internal force F(U) of the last step (3 per node), newtons.
+  // Internal force F(U) of the last step less the element loads (3 per node), newtons.
   std::span<const T> internal_forces() const { return {internal_force_.data(), internal_force_.size()}; }
   // Force each constrained dof's support exerts on the body at the last step,
   // M a + alpha M v + F - R (zero on free dofs), newtons.
@@ -109,9 +115,22 @@ class TledSolver {
   double min_jacobian() const { return min_J_; }
 
  private:
+  // CoupledSimulation runs a step's parts beside the inverse simulation's.
+  template <typename>
+  friend class CoupledSimulation;
+
+  // Advance()'s checks of the targets, and their begin and end values.
+  void SetTargets(std::span<const double> targets_m);
   // One step of internal_dt_s(); prescribed dofs reach the given fraction of
-  // the way from their begin to their end targets.
+  // the way from their begin to their end targets. Its parts: ElementChunk(c)
+  // for every c < element_chunks(), then NodeChunk(c) for every c <
+  // node_chunks() (each any order, any thread), then FinishStep().
   void Step(double fraction_end);
+  int element_chunks() const { return static_cast<int>(chunk_min_J_.size()); }
+  int node_chunks() const { return static_cast<int>(chunk_kinetic_.size()); }
+  void ElementChunk(int chunk);
+  void NodeChunk(int chunk);
+  void FinishStep(double fraction_end);
   void CheckStep();
   bool EnergyBlowingUp() const;
   [[noreturn]] void ThrowInversion() const;
@@ -134,6 +153,7 @@ class TledSolver {
 
   AlignedVector<T> u_prev_, u_, u_next_;
   AlignedVector<T> element_forces_;
+  const T* element_load_weights_ = nullptr;
   std::vector<T> internal_force_, external_force_, reaction_;
   std::vector<T> chunk_min_J_;
   std::vector<double> chunk_kinetic_;  // twice the free dofs' kinetic energy times (2 dt)^2

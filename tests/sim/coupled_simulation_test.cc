@@ -179,6 +179,41 @@ TEST_CASE("coupled simulation: concurrent and sequential, 1 and 2 threads, agree
   REQUIRE(difference > 1e-4);  // the constraints did act
 }
 
+// The inverse simulation's fused passes (forces, edge inverses and resolution
+// one level apart) compute what ForceRecovery followed by
+// ForceResolution::Resolve computes level by level from the motion model.
+TEST_CASE("inverse simulation: weights equal recovery then resolution at every level", "[unit]") {
+  const BeatingBox box = MakeBeatingBox();
+  SolverOptions options;
+  options.dt_s = 2e-3;  // ten times the paper's step: larger increments, same identity
+  options.gravity_m_s2 = Eigen::Vector3d(0, 0, -9.81);
+  const double phase_at_start = 0.3;
+  InverseSimulation<double> inverse(box.model_double, box.motion, options, phase_at_start);
+  ForceRecovery<double> recovery(box.model_double, options);
+  ForceResolution<double> resolution(box.model_double);
+  const size_t n_dofs = 3 * size_t(box.model_double->num_nodes());
+  std::vector<double> u_prev(n_dofs), u(n_dofs), u_next(n_dofs), forces(n_dofs), weights(resolution.weights_size());
+  auto motion_at = [&](long long level, std::vector<double>& out) {
+    box.motion->Evaluate<double>(box.motion->PhaseAt(level * options.dt_s, phase_at_start), out);
+  };
+  for (int level = 0; level < 40; ++level) {
+    REQUIRE(inverse.level() == level);
+    motion_at(level - 1, u_prev);
+    motion_at(level, u);
+    motion_at(level + 1, u_next);
+    recovery.Recover(u_prev, u, u_next, forces);
+    resolution.Resolve(u, forces, weights);
+    double scale = 0, difference = 0;
+    for (size_t i = 0; i < weights.size(); ++i) {
+      scale = std::max(scale, std::abs(weights[i]));
+      difference = std::max(difference, std::abs(weights[i] - inverse.weights()[i]));
+    }
+    REQUIRE(scale > 0);
+    REQUIRE(difference <= 1e-12 * scale);
+    inverse.Advance();
+  }
+}
+
 TEST_CASE("coupled simulation: bad set-up is an error with a reason", "[unit]") {
   const BeatingBox box = MakeBeatingBox();
   CoupledOptions options;
