@@ -41,7 +41,6 @@ T ElementPass(const TledModel<T>& model, const T* __restrict u, T* __restrict fo
   const T mu = model.shear_modulus();
   const T kappa = model.bulk_modulus();
   T min_J = std::numeric_limits<T>::max();
-  T min_ratio = std::numeric_limits<T>::max();
   T* __restrict edge_inverse = kMode == PassMode::kResolve ? resolve->edge_inverse : nullptr;
   const T* __restrict scaled_forces = kMode == PassMode::kResolve ? resolve->scaled_forces_n : nullptr;
   T* __restrict weights = kMode == PassMode::kResolve ? resolve->weights : nullptr;
@@ -56,7 +55,6 @@ T ElementPass(const TledModel<T>& model, const T* __restrict u, T* __restrict fo
     T* __restrict Dinv = kMode == PassMode::kResolve ? edge_inverse + size_t(b) * 9 * W : nullptr;
     T* __restrict q_out = kMode == PassMode::kResolve ? weights + size_t(b) * 12 * W : nullptr;
     alignas(64) T J_lane[W];
-    alignas(64) T ratio_lane[W];
 
 #pragma GCC ivdep
     for (int l = 0; l < W; ++l) {
@@ -112,55 +110,53 @@ T ElementPass(const TledModel<T>& model, const T* __restrict u, T* __restrict fo
       T f3z = P20 * g3x + P21 * g3y + P22 * g3z;
       T f0x = -(f1x + f2x + f3x), f0y = -(f1y + f2y + f3y), f0z = -(f1z + f2z + f3z);
 
-      if constexpr (kMode != PassMode::kForces) {
+      if constexpr (kMode == PassMode::kLessLoads) {
         // The current edges D = D0 + (u_j - u_0), columns e1, e2, e3.
         const T e1x = D0[0 * W + l] + d1x, e1y = D0[1 * W + l] + d1y, e1z = D0[2 * W + l] + d1z;
         const T e2x = D0[3 * W + l] + d2x, e2y = D0[4 * W + l] + d2y, e2z = D0[5 * W + l] + d2z;
         const T e3x = D0[6 * W + l] + d3x, e3y = D0[7 * W + l] + d3y, e3z = D0[8 * W + l] + d3z;
-        if constexpr (kMode == PassMode::kLessLoads) {
-          // Corner c's resolved load D q_c (eq. 5 in the current geometry), taken off its force.
-          auto load = [&](int c, T& fx, T& fy, T& fz) {
-            const T q1 = q_load[(3 * c) * W + l], q2 = q_load[(3 * c + 1) * W + l], q3 = q_load[(3 * c + 2) * W + l];
-            fx -= e1x * q1 + e2x * q2 + e3x * q3;
-            fy -= e1y * q1 + e2y * q2 + e3y * q3;
-            fz -= e1z * q1 + e2z * q2 + e3z * q3;
-          };
-          load(0, f0x, f0y, f0z);
-          load(1, f1x, f1y, f1z);
-          load(2, f2x, f2y, f2z);
-          load(3, f3x, f3y, f3z);
-        } else {
-          // Resolve the previous level's forces with its D^-1 (rows stored in Dinv),
-          // q_c = D^-1 (r_c / n_c), then store this geometry's D^-1 in its place.
-          const T r00 = Dinv[0 * W + l], r01 = Dinv[1 * W + l], r02 = Dinv[2 * W + l];
-          const T r10 = Dinv[3 * W + l], r11 = Dinv[4 * W + l], r12 = Dinv[5 * W + l];
-          const T r20 = Dinv[6 * W + l], r21 = Dinv[7 * W + l], r22 = Dinv[8 * W + l];
-          const int corner_dof[4] = {n0, n1, n2, n3};
-          for (int c = 0; c < 4; ++c) {
-            const int n = corner_dof[c];
-            const T rx = scaled_forces[n], ry = scaled_forces[n + 1], rz = scaled_forces[n + 2];
-            q_out[(3 * c) * W + l] = r00 * rx + r01 * ry + r02 * rz;
-            q_out[(3 * c + 1) * W + l] = r10 * rx + r11 * ry + r12 * rz;
-            q_out[(3 * c + 2) * W + l] = r20 * rx + r21 * ry + r22 * rz;
-          }
-          // Rows of D^-1 times det(D): e2 x e3, e3 x e1, e1 x e2.
-          const T a0 = e2y * e3z - e2z * e3y, a1 = e2z * e3x - e2x * e3z, a2 = e2x * e3y - e2y * e3x;
-          const T b0 = e3y * e1z - e3z * e1y, b1 = e3z * e1x - e3x * e1z, b2 = e3x * e1y - e3y * e1x;
-          const T c0 = e1y * e2z - e1z * e2y, c1 = e1z * e2x - e1x * e2z, c2 = e1x * e2y - e1y * e2x;
-          const T det = e1x * a0 + e1y * a1 + e1z * a2;
-          const bool real = v > 0;  // padding lanes have no volume and no incidences
-          ratio_lane[l] = real ? det / (6 * v) : T(1);
-          const T inv_det = real ? T(1) / det : T(0);
-          Dinv[0 * W + l] = a0 * inv_det;
-          Dinv[1 * W + l] = a1 * inv_det;
-          Dinv[2 * W + l] = a2 * inv_det;
-          Dinv[3 * W + l] = b0 * inv_det;
-          Dinv[4 * W + l] = b1 * inv_det;
-          Dinv[5 * W + l] = b2 * inv_det;
-          Dinv[6 * W + l] = c0 * inv_det;
-          Dinv[7 * W + l] = c1 * inv_det;
-          Dinv[8 * W + l] = c2 * inv_det;
+        // Corner c's resolved load D q_c (eq. 5 in the current geometry), taken off its force.
+        auto load = [&](int c, T& fx, T& fy, T& fz) {
+          const T q1 = q_load[(3 * c) * W + l], q2 = q_load[(3 * c + 1) * W + l], q3 = q_load[(3 * c + 2) * W + l];
+          fx -= e1x * q1 + e2x * q2 + e3x * q3;
+          fy -= e1y * q1 + e2y * q2 + e3y * q3;
+          fz -= e1z * q1 + e2z * q2 + e3z * q3;
+        };
+        load(0, f0x, f0y, f0z);
+        load(1, f1x, f1y, f1z);
+        load(2, f2x, f2y, f2z);
+        load(3, f3x, f3y, f3z);
+      } else if constexpr (kMode == PassMode::kResolve) {
+        // Resolve the previous level's forces with its D^-1 (rows stored in Dinv),
+        // q_c = D^-1 (r_c / n_c), then store this geometry's D^-1 in its place.
+        const T r00 = Dinv[0 * W + l], r01 = Dinv[1 * W + l], r02 = Dinv[2 * W + l];
+        const T r10 = Dinv[3 * W + l], r11 = Dinv[4 * W + l], r12 = Dinv[5 * W + l];
+        const T r20 = Dinv[6 * W + l], r21 = Dinv[7 * W + l], r22 = Dinv[8 * W + l];
+        const int corner_dof[4] = {n0, n1, n2, n3};
+        for (int c = 0; c < 4; ++c) {
+          const int n = corner_dof[c];
+          const T rx = scaled_forces[n], ry = scaled_forces[n + 1], rz = scaled_forces[n + 2];
+          q_out[(3 * c) * W + l] = r00 * rx + r01 * ry + r02 * rz;
+          q_out[(3 * c + 1) * W + l] = r10 * rx + r11 * ry + r12 * rz;
+          q_out[(3 * c + 2) * W + l] = r20 * rx + r21 * ry + r22 * rz;
         }
+        // This geometry's D^-1 = D0^-1 F^-1: D = F D0, the rows of D0^-1 are
+        // dN_c/dX (c = 1..3) and F^-1 = cof(F)^T / J, so row c, column k is
+        // (dN_c/dX . row k of cof(F)) / J. Its volume ratio det(D)/det(D0) is J.
+        // Padding lanes have dN = 0 and J = 1: zero rows, ratio 1.
+        const T inv_J = T(1) / J;
+        const T k0x = cof00 * inv_J, k0y = cof01 * inv_J, k0z = cof02 * inv_J;
+        const T k1x = cof10 * inv_J, k1y = cof11 * inv_J, k1z = cof12 * inv_J;
+        const T k2x = cof20 * inv_J, k2y = cof21 * inv_J, k2z = cof22 * inv_J;
+        Dinv[0 * W + l] = g1x * k0x + g1y * k0y + g1z * k0z;
+        Dinv[1 * W + l] = g1x * k1x + g1y * k1y + g1z * k1z;
+        Dinv[2 * W + l] = g1x * k2x + g1y * k2y + g1z * k2z;
+        Dinv[3 * W + l] = g2x * k0x + g2y * k0y + g2z * k0z;
+        Dinv[4 * W + l] = g2x * k1x + g2y * k1y + g2z * k1z;
+        Dinv[5 * W + l] = g2x * k2x + g2y * k2y + g2z * k2z;
+        Dinv[6 * W + l] = g3x * k0x + g3y * k0y + g3z * k0z;
+        Dinv[7 * W + l] = g3x * k1x + g3y * k1y + g3z * k1z;
+        Dinv[8 * W + l] = g3x * k2x + g3y * k2y + g3z * k2z;
       }
       f[0 * W + l] = f0x;
       f[1 * W + l] = f0y;
@@ -177,11 +173,8 @@ T ElementPass(const TledModel<T>& model, const T* __restrict u, T* __restrict fo
       J_lane[l] = J;
     }
     for (int l = 0; l < W; ++l) min_J = std::min(min_J, J_lane[l]);
-    if constexpr (kMode == PassMode::kResolve) {
-      for (int l = 0; l < W; ++l) min_ratio = std::min(min_ratio, ratio_lane[l]);
-    }
   }
-  if constexpr (kMode == PassMode::kResolve) resolve->min_volume_ratio = min_ratio;
+  if constexpr (kMode == PassMode::kResolve) resolve->min_volume_ratio = min_J;
   return min_J;
 }
 

@@ -35,7 +35,8 @@ T ComputeElementForcesLessLoads(const TledModel<T>& model, const T* u, const T* 
 // the previous level's edge inverses, q_c = D^-1 (r_c / n_c), into `weights`,
 // then overwrites `edge_inverse` with the rows of D^-1 of the geometry X + u
 // (zero for padding) and sets min_volume_ratio to the blocks' smallest
-// det(D) / det(D0) (1 for padding).
+// det(D) / det(D0), which is J (1 for padding). D^-1 = D0^-1 F^-1 comes from the
+// cofactors and J the forces need: no edge matrix is formed.
 template <typename T>
 struct ResolveBuffers {
   T* edge_inverse = nullptr;            // [block][row][column][lane], in and out
