@@ -3,25 +3,20 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstring>
 #include <vector>
 
-#include <opencv2/imgproc.hpp>
+#if defined(__AVX2__)
+#include <immintrin.h>
+#endif
+
+#include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
 #include "sim/error.h"
 
 namespace dg::stages {
 namespace {
-
-// Zero mean, unit norm: the window's NCC with another is then a dot product.
-bool Normalize(cv::Mat* window) {
-  const cv::Scalar mean = cv::mean(*window);
-  *window -= mean;
-  const double norm = cv::norm(*window);
-  if (norm < 1e-6) return false;
-  *window /= norm;
-  return true;
-}
 
 // Keys' cubic convolution weights (a = -0.75, as OpenCV's INTER_CUBIC) of the
 // four taps at -1, 0, 1, 2 for a sample at fraction t in [0, 1).
@@ -34,94 +29,191 @@ std::array<float, 4> CubicWeights(float t) {
   return {w0, w1, w2, 1 - w0 - w1 - w2};
 }
 
-// Bicubic windows of one size at sub-pixel centres, from a float copy of an
-// image neighbourhood made once: bilinear sampling (getRectSubPix) smooths
-// differently at each fraction of a pixel and biases the sub-pixel estimate by
-// a few hundredths of a pixel; an 8-bit result would be rounded to whole grey
-// levels. Every pixel of a window has the same fractions, so the kernel is one
-// set of separable weights, computed exactly (cv::remap rounds them to 1/32 px).
-// Pixels beyond the image repeat its edge. Sampling allocates nothing.
-class CubicSampler {
- public:
-  // Windows of `size` centred within `reach` px of `centre` along x.
-  CubicSampler(const cv::Mat& image, cv::Size size, const cv::Point2f& centre, int reach)
-      : size_(size), window_(size, CV_32F), rows_(size.width, 0.0f) {
-    const cv::Point2f origin = Origin(centre);
-    // Two pixels either side for the cubic's support.
-    const cv::Rect wanted(static_cast<int>(std::floor(origin.x)) - 2 - reach,
-                          static_cast<int>(std::floor(origin.y)) - 2, size.width + 5 + 2 * reach, size.height + 5);
-    roi_ = wanted & cv::Rect(0, 0, image.cols, image.rows);
-    image(roi_).convertTo(patch_, CV_32F);
-  }
+// The cross term of the search's NCC is summed over kLanes offsets at once,
+// one 512-bit vector (two 256-bit ones without AVX-512): a tracked point's
+// range of 9 offsets is one block. The strip buffer has kLanes spare floats
+// so that the last block may read past its end.
+constexpr int kLanes = 16;
+// GCC's vector extension: an array of lanes would be kept in memory, one store per addition.
+typedef float Lanes __attribute__((vector_size(kLanes * sizeof(float))));
 
-  // The window centred at `centre`; valid until the next call.
-  const cv::Mat& Sample(const cv::Point2f& centre) {
-    const cv::Point2f origin = Origin(centre) - cv::Point2f(static_cast<float>(roi_.x), static_cast<float>(roi_.y));
-    const int x0 = static_cast<int>(std::floor(origin.x)), y0 = static_cast<int>(std::floor(origin.y));
-    const std::array<float, 4> wx = CubicWeights(origin.x - static_cast<float>(x0));
-    const std::array<float, 4> wy = CubicWeights(origin.y - static_cast<float>(y0));
-    const auto clamp_x = [&](int x) { return std::clamp(x, 0, patch_.cols - 1); };
-    const auto clamp_y = [&](int y) { return std::clamp(y, 0, patch_.rows - 1); };
-    for (int r = 0; r < size_.height; ++r) {
-      std::fill(rows_.begin(), rows_.end(), 0.0f);
-      // Each of the four source rows filtered along x, then summed with the weights along y.
-      for (int j = 0; j < 4; ++j) {
-        const float* in = patch_.ptr<float>(clamp_y(y0 + r + j - 1));
-        for (int c = 0; c < size_.width; ++c) {
-          float sum = 0;
-          for (int i = 0; i < 4; ++i) sum += wx[i] * in[clamp_x(x0 + c + i - 1)];
-          rows_[c] += wy[j] * sum;
-        }
-      }
-      std::copy(rows_.begin(), rows_.end(), window_.ptr<float>(r));
-    }
-    return window_;
-  }
+// The samplers write kBlock columns at a time (one 256-bit vector); a row's
+// last block spills into the next row, which then overwrites it, and past
+// the last row into kPad spare floats at the end of each buffer. Their fast
+// paths read as far past the window as they write.
+constexpr int kBlock = 8, kPad = 2 * kBlock;
+typedef float Floats __attribute__((vector_size(kBlock * sizeof(float))));
 
- private:
-  cv::Point2f Origin(const cv::Point2f& centre) const {
-    return {centre.x - 0.5f * static_cast<float>(size_.width - 1), centre.y - 0.5f * static_cast<float>(size_.height - 1)};
-  }
+// GCC 12 converts a vector of bytes to floats one lane at a time; AVX2 has the instruction.
+Floats LoadBytes(const uchar* p) {
+#if defined(__AVX2__)
+  return _mm256_cvtepi32_ps(_mm256_cvtepu8_epi32(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(p))));
+#else
+  Floats v;
+  for (int k = 0; k < kBlock; ++k) v[k] = p[k];
+  return v;
+#endif
+}
+Floats LoadFloats(const float* p) {
+  Floats v;
+  std::memcpy(&v, p, sizeof v);
+  return v;
+}
+void Store(float* p, const Floats& v) { std::memcpy(p, &v, sizeof v); }
 
-  cv::Size size_;
-  cv::Rect roi_;
-  cv::Mat patch_, window_;
-  std::vector<float> rows_;
+// One task's buffers: they grow to the largest window and range met and are
+// then reused, so that matching a point allocates nothing.
+struct Buffers {
+  std::vector<float> window, strip, centred, cross, ncc;  // row search
+  std::vector<double> column_sum, column_sum2;       // row search
+  std::vector<float> rows, left, wide;               // refinement
 };
 
-// cv::matchTemplate's TM_CCOEFF_NORMED of a one-row result, summed directly:
-// for windows this small OpenCV's general path costs more than the sums.
-// A flat strip window (no texture) scores 0.
-void NormalizedCrossCorrelation(const cv::Mat& strip, const cv::Mat& window, cv::Mat* ncc) {
-  const int w = window.cols, h = window.rows, count = strip.cols - w + 1;
-  const double n = static_cast<double>(w * h);
-  double window_sum = 0;
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x) window_sum += window.at<float>(y, x);
-  const double window_mean = window_sum / n;
-  double window_norm2 = 0;
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x) window_norm2 += std::pow(window.at<float>(y, x) - window_mean, 2);
-  ncc->create(1, count, CV_32F);
-  float* out = ncc->ptr<float>(0);
-  for (int j = 0; j < count; ++j) {
-    double sum = 0, sum2 = 0, cross = 0;
-    for (int y = 0; y < h; ++y) {
-      const float* s = strip.ptr<float>(y) + j;
-      const float* t = window.ptr<float>(y);
-      for (int x = 0; x < w; ++x) {
-        sum += s[x];
-        sum2 += double(s[x]) * s[x];
-        cross += (t[x] - window_mean) * s[x];  // the window's zero mean removes the strip's mean
-      }
+// The w x h window centred at (cx, cy), bilinear into float as
+// cv::getRectSubPix: pixels beyond the image repeat its edge.
+void SampleBilinear(const cv::Mat& image, float cx, float cy, int w, int h, float* out) {
+  const float ox = cx - 0.5f * static_cast<float>(w - 1), oy = cy - 0.5f * static_cast<float>(h - 1);
+  const int x0 = static_cast<int>(std::floor(ox)), y0 = static_cast<int>(std::floor(oy));
+  const float a = ox - static_cast<float>(x0), b = oy - static_cast<float>(y0);
+  const float w00 = (1 - a) * (1 - b), w01 = a * (1 - b), w10 = (1 - a) * b, w11 = a * b;
+  if (x0 >= 0 && y0 >= 0 && x0 + w + kBlock < image.cols && y0 + h < image.rows) {
+    for (int r = 0; r < h; ++r, out += w) {
+      const uchar* s0 = image.ptr<uchar>(y0 + r) + x0;
+      const uchar* s1 = image.ptr<uchar>(y0 + r + 1) + x0;
+      for (int c = 0; c < w; c += kBlock)
+        Store(out + c, w00 * LoadBytes(s0 + c) + w01 * LoadBytes(s0 + c + 1) + w10 * LoadBytes(s1 + c) +
+                           w11 * LoadBytes(s1 + c + 1));
     }
+    return;
+  }
+  const auto at = [&](int y, int x) {
+    return static_cast<float>(image.at<uchar>(std::clamp(y, 0, image.rows - 1), std::clamp(x, 0, image.cols - 1)));
+  };
+  for (int r = 0; r < h; ++r, out += w) {
+    const int y = y0 + r;
+    for (int c = 0; c < w; ++c) {
+      const int x = x0 + c;
+      out[c] = w00 * at(y, x) + w01 * at(y, x + 1) + w10 * at(y + 1, x) + w11 * at(y + 1, x + 1);
+    }
+  }
+}
+
+// cv::matchTemplate's TM_CCOEFF_NORMED of the w x h `window` at each of
+// `count` offsets along `strip` ((count + w - 1) x h, row-major), into ncc:
+//   ncc(j) = sum (t - mean t) s / sqrt(sum (t - mean t)^2 * (sum s^2 - (sum s)^2 / n))
+// over the window at offset j. The window is centred once, so the cross term
+// needs no strip mean; the strip's sums come from its column sums, each
+// column summed once rather than once per offset. A flat strip window scores 0.
+void NormalizedCrossCorrelation(const float* strip, const float* window, int w, int h, int count, Buffers* b,
+                                float* ncc) {
+  const int cols = count + w - 1, area = w * h;
+  const double n = static_cast<double>(area);
+  // Sums in double, two partial sums each: one chain of dependent additions would wait on every add.
+  double sum_even = 0, sum_odd = 0, sum2_even = 0, sum2_odd = 0;
+  int k = 0;
+  for (; k + 1 < area; k += 2) {
+    sum_even += window[k], sum2_even += static_cast<double>(window[k]) * window[k];
+    sum_odd += window[k + 1], sum2_odd += static_cast<double>(window[k + 1]) * window[k + 1];
+  }
+  if (k < area) sum_even += window[k], sum2_even += static_cast<double>(window[k]) * window[k];
+  const double window_mean = (sum_even + sum_odd) / n;
+  const double window_norm2 = std::max(0.0, sum2_even + sum2_odd - n * window_mean * window_mean);
+  b->centred.resize(area);
+  float* centred = b->centred.data();
+  for (int k = 0; k < area; ++k) centred[k] = static_cast<float>(window[k] - window_mean);
+  b->column_sum.assign(cols, 0.0);
+  b->column_sum2.assign(cols, 0.0);
+  for (int y = 0; y < h; ++y) {
+    const float* s = strip + y * cols;
+    for (int c = 0; c < cols; ++c) {
+      b->column_sum[c] += s[c];
+      b->column_sum2[c] += static_cast<double>(s[c]) * s[c];
+    }
+  }
+  // The cross term, kLanes offsets at a time; even and odd rows in two sums, as above.
+  const int blocks = (count + kLanes - 1) / kLanes;
+  b->cross.resize(static_cast<size_t>(blocks) * kLanes);
+  for (int block = 0; block < blocks; ++block) {
+    Lanes even = {}, odd = {};
+    const auto add_row = [&](int y, Lanes* acc) {
+      const float* t = centred + y * w;
+      const float* s = strip + y * cols + block * kLanes;
+      for (int x = 0; x < w; ++x) {
+        Lanes strip_lanes;
+        std::memcpy(&strip_lanes, s + x, sizeof strip_lanes);
+        *acc += t[x] * strip_lanes;
+      }
+    };
+    int y = 0;
+    for (; y + 1 < h; y += 2) add_row(y, &even), add_row(y + 1, &odd);
+    if (y < h) add_row(y, &even);
+    const Lanes cross = even + odd;
+    std::memcpy(b->cross.data() + block * kLanes, &cross, sizeof cross);
+  }
+  double sum = 0, sum2 = 0;
+  for (int c = 0; c < w - 1; ++c) sum += b->column_sum[c], sum2 += b->column_sum2[c];
+  for (int j = 0; j < count; ++j) {
+    sum += b->column_sum[j + w - 1];
+    sum2 += b->column_sum2[j + w - 1];
     const double strip_norm2 = std::max(0.0, sum2 - sum * sum / n);
     const double denominator = std::sqrt(strip_norm2 * window_norm2);
-    out[j] = denominator > 1e-6 ? static_cast<float>(cross / denominator) : 0.0f;
+    ncc[j] = denominator > 1e-6 ? static_cast<float>(b->cross[j] / denominator) : 0.0f;
+    sum -= b->column_sum[j];
+    sum2 -= b->column_sum2[j];
+  }
+}
+
+// Bicubic windows (the weights above) whose rows all lie at one sub-pixel
+// height, as every window of the refinement does: bilinear sampling
+// (getRectSubPix) smooths differently at each fraction of a pixel and biases
+// the sub-pixel estimate by a few hundredths of a pixel, and an 8-bit result
+// would be rounded to whole grey levels. The kernel is separable, so the image
+// rows are filtered along y once, into `rows` (h rows of the columns
+// [x_lo, x_lo + width)), and each window is then a 4-tap filter of those
+// along x (SampleAlongX), with exact weights (cv::remap rounds them to 1/32 px).
+// Pixels beyond the image repeat its edge.
+void FilterAlongY(const cv::Mat& image, float origin_y, int h, int x_lo, int width, std::vector<float>* rows) {
+  const int y0 = static_cast<int>(std::floor(origin_y));
+  const std::array<float, 4> wy = CubicWeights(origin_y - static_cast<float>(y0));
+  rows->resize(static_cast<size_t>(h) * width + kPad);
+  const bool inside = x_lo >= 0 && x_lo + width + kBlock <= image.cols;
+  for (int r = 0; r < h; ++r) {
+    const uchar* in[4];
+    for (int j = 0; j < 4; ++j) in[j] = image.ptr<uchar>(std::clamp(y0 + r + j - 1, 0, image.rows - 1));
+    float* out = rows->data() + static_cast<size_t>(r) * width;
+    if (inside) {
+      for (int c = 0; c < width; c += kBlock) {
+        const int x = x_lo + c;
+        Store(out + c, wy[0] * LoadBytes(in[0] + x) + wy[1] * LoadBytes(in[1] + x) + wy[2] * LoadBytes(in[2] + x) +
+                           wy[3] * LoadBytes(in[3] + x));
+      }
+    } else {
+      for (int c = 0; c < width; ++c) {
+        const int x = std::clamp(x_lo + c, 0, image.cols - 1);
+        out[c] = wy[0] * in[0][x] + wy[1] * in[1][x] + wy[2] * in[2][x] + wy[3] * in[3][x];
+      }
+    }
+  }
+}
+
+// The w x h window whose top-left pixel lies at origin_x along the rows
+// FilterAlongY made from column x_lo on, `width` wide.
+void SampleAlongX(const std::vector<float>& rows, int x_lo, int width, float origin_x, int w, int h, float* out) {
+  const int x0 = static_cast<int>(std::floor(origin_x));
+  const std::array<float, 4> wx = CubicWeights(origin_x - static_cast<float>(x0));
+  const int first = x0 - 1 - x_lo;  // the first tap of the window's first column
+  DG_CHECK(first >= 0 && first + w + 3 <= width && rows.size() >= static_cast<size_t>(h) * width + kPad);
+  for (int r = 0; r < h; ++r, out += w) {
+    const float* in = rows.data() + static_cast<size_t>(r) * width + first;
+    for (int c = 0; c < w; c += kBlock)
+      Store(out + c, wx[0] * LoadFloats(in + c) + wx[1] * LoadFloats(in + c + 1) + wx[2] * LoadFloats(in + c + 2) +
+                         wx[3] * LoadFloats(in + c + 3));
   }
 }
 
 }  // namespace
+
+struct StereoMatcher::Scratch : Buffers {};
 
 std::string StereoMatcher::Options::Validate() const {
   if (min_disparity_px < 0 || max_disparity_px <= min_disparity_px)
@@ -141,22 +233,25 @@ StereoMatcher::StereoMatcher(const Options& options) : options_(options) {
 }
 
 StereoMatcher::Peak StereoMatcher::SearchRow(const cv::Mat& from, const cv::Mat& to, const cv::Point2f& p,
-                                             int direction, int d_min, int d_max) const {
-  const int h = options_.half_window_px;
-  const int count = d_max - d_min + 1;
-  cv::Mat window, strip, ncc;
-  cv::getRectSubPix(from, cv::Size(2 * h + 1, 2 * h + 1), p, window, CV_32F);
+                                             int direction, int d_min, int d_max, Scratch* scratch) const {
+  const int h = options_.half_window_px, w = 2 * h + 1;
+  const int count = d_max - d_min + 1, cols = count + 2 * h;
+  scratch->window.resize(static_cast<size_t>(w) * w + kPad);
+  SampleBilinear(from, p.x, p.y, w, w, scratch->window.data());
   // Column j of the strip's NCC is disparity d_max - j looking left, d_min + j looking right.
   const float centre_x = p.x + direction * 0.5f * static_cast<float>(d_min + d_max);
-  cv::getRectSubPix(to, cv::Size(count + 2 * h, 2 * h + 1), cv::Point2f(centre_x, p.y), strip, CV_32F);
-  NormalizedCrossCorrelation(strip, window, &ncc);
+  scratch->strip.assign(static_cast<size_t>(cols) * w + std::max(kLanes, kPad), 0.0f);
+  SampleBilinear(to, centre_x, p.y, cols, w, scratch->strip.data());
+  std::vector<float>& ncc = scratch->ncc;
+  ncc.resize(count);
+  NormalizedCrossCorrelation(scratch->strip.data(), scratch->window.data(), w, w, count, scratch, ncc.data());
   const auto disparity_of = [&](int j) { return direction < 0 ? d_max - j : d_min + j; };
   // Windows reaching past the image edge see replicated border pixels, not the scene.
   const auto inside = [&](int j) {
     const float x = p.x + direction * static_cast<float>(disparity_of(j));
     return x - h >= 0 && x + h <= to.cols - 1;
   };
-  const float* r = ncc.ptr<float>(0);
+  const float* r = ncc.data();
   int best = -1;
   for (int j = 0; j < count; ++j)
     if (inside(j) && std::isfinite(r[j]) && (best < 0 || r[j] > r[best])) best = j;
@@ -181,40 +276,59 @@ StereoMatcher::Peak StereoMatcher::SearchRow(const cv::Mat& from, const cv::Mat&
   return peak;
 }
 
-bool StereoMatcher::Refine(const cv::Mat& left, const cv::Mat& right, const cv::Point2f& p, double* disparity) const {
-  const int h = options_.half_window_px;
-  const cv::Size size(2 * h + 1, 2 * h + 1);
-  cv::Mat l = CubicSampler(left, size, p, 0).Sample(p).clone();
-  if (!Normalize(&l)) return false;
+bool StereoMatcher::Refine(const cv::Mat& left, const cv::Mat& right, const cv::Point2f& p, double* disparity,
+                          Scratch* scratch) const {
+  const int h = options_.half_window_px, w = 2 * h + 1, area = w * w;
+  const float top = p.y - static_cast<float>(h);  // every window's first row, left and right
+  // L: the left window, zero mean and unit norm.
+  const float left_origin = p.x - static_cast<float>(h);
+  const int left_lo = static_cast<int>(std::floor(left_origin)) - 2;
+  FilterAlongY(left, top, w, left_lo, w + 5, &scratch->rows);
+  std::vector<float>& l = scratch->left;
+  l.resize(area + kPad);
+  SampleAlongX(scratch->rows, left_lo, w + 5, left_origin, w, w, l.data());
+  double left_sum = 0;
+  for (int k = 0; k < area; ++k) left_sum += l[k];
+  const double left_mean = left_sum / area;
+  double left_norm2 = 0;
+  for (int k = 0; k < area; ++k) left_norm2 += (l[k] - left_mean) * (l[k] - left_mean);
+  if (std::sqrt(left_norm2) < 1e-6) return false;
+  const double left_norm = std::sqrt(left_norm2);
+  for (int k = 0; k < area; ++k) l[k] = static_cast<float>((l[k] - left_mean) / left_norm);
+  // The right window and one column either side, for central differences. The
+  // disparity stays within a pixel of its start, so the window's left edge
+  // stays in [centre - h - 2, centre - h] and its taps in the columns filtered here.
   const double start = *disparity;
-  // The right window and one column either side, for central differences;
-  // the disparity stays within a pixel of its start, so one neighbourhood serves every iteration.
-  CubicSampler right_sampler(right, cv::Size(size.width + 2, size.height),
-                             cv::Point2f(p.x - static_cast<float>(start), p.y), 2);
+  const int wide_w = w + 2;
+  const int right_lo = static_cast<int>(std::floor(p.x - static_cast<float>(start))) - h - 4;
+  const int right_width = wide_w + 8;
+  FilterAlongY(right, top, w, right_lo, right_width, &scratch->rows);
+  std::vector<float>& wide = scratch->wide;
+  wide.resize(static_cast<size_t>(wide_w) * w + kPad);
   for (int it = 0; it < options_.refine_iterations; ++it) {
-    const cv::Mat& wide = right_sampler.Sample(cv::Point2f(p.x - static_cast<float>(*disparity), p.y));
-    // R is the window's middle columns; plain loops: these windows are too small for cv::Mat arithmetic to pay.
-    double sum = 0, sum2 = 0;
-    for (int y = 0; y < size.height; ++y) {
-      const float* w = wide.ptr<float>(y) + 1;
-      for (int x = 0; x < size.width; ++x) sum += w[x], sum2 += double(w[x]) * w[x];
+    const float centre = p.x - static_cast<float>(*disparity);
+    SampleAlongX(scratch->rows, right_lo, right_width, centre - static_cast<float>(h + 1), wide_w, w, wide.data());
+    // R is the window's middle columns (c), gx their central difference (d / 2). One pass of six
+    // independent sums, no division per pixel: these windows are too small for cv::Mat arithmetic to pay.
+    double sum = 0, sum2 = 0, dd = 0, dc = 0, d_sum = 0, dl = 0;
+    for (int y = 0; y < w; ++y) {
+      const float* r = wide.data() + y * wide_w;
+      const float* lw = l.data() + y * w;
+      for (int x = 0; x < w; ++x) {
+        const double c = r[x + 1], d = double(r[x + 2]) - r[x];
+        sum += c, sum2 += c * c;
+        dd += d * d, dc += d * c, d_sum += d, dl += d * lw[x];
+      }
     }
-    const double n = static_cast<double>(size.area());
+    const double n = static_cast<double>(area);
     const double mean = sum / n;
     const double norm = std::sqrt(std::max(0.0, sum2 - n * mean * mean));
     if (norm < 1e-6) return false;
     // Minimise sum (R(x - d - delta) - L)^2 over zero-mean, unit-norm R: R(x - d - delta) ~ R - gx delta,
-    // with gx the central difference of R.
-    double gg = 0, g_residual = 0;
-    for (int y = 0; y < size.height; ++y) {
-      const float* w = wide.ptr<float>(y);
-      const float* lw = l.ptr<float>(y);
-      for (int x = 0; x < size.width; ++x) {
-        const double g = 0.5 * (double(w[x + 2]) - w[x]) / norm;
-        gg += g * g;
-        g_residual += g * ((w[x + 1] - mean) / norm - lw[x]);
-      }
-    }
+    // gx = d / (2 norm) and R = (c - mean) / norm, so
+    //   sum gx^2 = dd / (4 norm^2),  sum gx (R - L) = (dc - mean d_sum) / (2 norm^2) - dl / (2 norm).
+    const double gg = dd / (4 * norm * norm);
+    const double g_residual = (dc - mean * d_sum) / (2 * norm * norm) - dl / (2 * norm);
     if (gg < 1e-12) return false;
     const double delta = g_residual / gg;
     *disparity += delta;
@@ -231,7 +345,8 @@ std::vector<StereoMatch> StereoMatcher::Match(const cv::Mat& left, const cv::Mat
   DG_CHECK(expected_disparity_px == nullptr || expected_disparity_px->size() == uv_left_px.size());
   std::vector<StereoMatch> matches(uv_left_px.size());
   // Points are independent and each writes only its own slot: the result does not depend on the threads.
-  tbb::parallel_for(std::size_t{0}, uv_left_px.size(), [&](std::size_t i) {
+  // One set of buffers per task, not per point.
+  const auto match_one = [&](std::size_t i, Scratch* scratch) {
     const cv::Point2f& p = uv_left_px[i];
     double lo = options_.min_disparity_px, hi = options_.max_disparity_px;
     if (expected_disparity_px != nullptr && (*expected_disparity_px)[i] >= 0) {
@@ -240,16 +355,21 @@ std::vector<StereoMatch> StereoMatcher::Match(const cv::Mat& left, const cv::Mat
     }
     const int d_min = static_cast<int>(std::ceil(lo)), d_max = static_cast<int>(std::floor(hi));
     if (d_max - d_min < 2) return;
-    const Peak forward = SearchRow(left, right, p, -1, d_min, d_max);
+    const Peak forward = SearchRow(left, right, p, -1, d_min, d_max, scratch);
     if (!forward.found) return;
     const cv::Point2f q(p.x - static_cast<float>(forward.disparity), p.y);
-    const Peak backward = SearchRow(right, left, q, +1, d_min, d_max);
+    const Peak backward = SearchRow(right, left, q, +1, d_min, d_max, scratch);
     if (!backward.found || std::abs(backward.disparity - forward.disparity) > options_.left_right_tolerance_px)
       return;
     double disparity = forward.disparity;
-    if (!Refine(left, right, p, &disparity)) return;
+    if (!Refine(left, right, p, &disparity, scratch)) return;
     matches[i] = {true, static_cast<float>(disparity), static_cast<float>(forward.score)};
-  });
+  };
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, uv_left_px.size()),
+                    [&](const tbb::blocked_range<std::size_t>& range) {
+                      Scratch scratch;
+                      for (std::size_t i = range.begin(); i != range.end(); ++i) match_one(i, &scratch);
+                    });
   return matches;
 }
 

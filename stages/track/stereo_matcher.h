@@ -25,7 +25,8 @@ struct StereoMatch {
 // on the zero-mean, unit-variance windows along x only, which removes the
 // parabola's bias towards whole pixels.
 // Stateless; Match() is const and may run on several frames at once; within one
-// call the points are matched in parallel (TBB), each writing only its own result.
+// call the points are matched in parallel (TBB), each writing only its own result
+// and each task reusing its own buffers (a point allocates nothing).
 class StereoMatcher {
  public:
   struct Options {
@@ -57,12 +58,14 @@ class StereoMatcher {
     bool found = false;
     double disparity = 0, score = 0;
   };
+  struct Scratch;  // one task's buffers, defined in the .cc
   // The best disparity in [d_min, d_max] from `from` at p into `to`, along
   // the row; direction -1 looks left of p (left to right image), +1 right of it.
-  Peak SearchRow(const cv::Mat& from, const cv::Mat& to, const cv::Point2f& p, int direction, int d_min,
-                 int d_max) const;
+  Peak SearchRow(const cv::Mat& from, const cv::Mat& to, const cv::Point2f& p, int direction, int d_min, int d_max,
+                 Scratch* scratch) const;
   // Gauss-Newton along x from an initial disparity; false if it does not settle.
-  bool Refine(const cv::Mat& left, const cv::Mat& right, const cv::Point2f& p, double* disparity) const;
+  bool Refine(const cv::Mat& left, const cv::Mat& right, const cv::Point2f& p, double* disparity,
+              Scratch* scratch) const;
 
   Options options_;
 };
