@@ -75,6 +75,21 @@ Scene::Overlays ReadOverlays(const YamlMap& map, const fs::path& directory) {
     overlays.internal_points = ExistingFile(map, "internal_points", directory, file) +
                                (colon == std::string::npos ? "" : value.substr(colon));
   }
+  if (map.Has("order")) {
+    const YAML::Node list = map.Node("order");
+    if (!list.IsSequence()) throw Error("'order' must be a list", map.Where("order"), "write [texture, volume, meshes]");
+    for (const YAML::Node& item : list) {
+      const std::string name = item.as<std::string>();
+      if (name != "texture" && name != "volume" && name != "meshes") {
+        throw Error("unknown overlay '" + name + "'", map.Where("order"), "use texture, volume and meshes");
+      }
+      overlays.order.push_back(name);
+    }
+  }
+  overlays.blend = map.String("blend", overlays.blend);
+  if (overlays.blend != "inverse_realism" && overlays.blend != "alpha") {
+    throw Error("unknown blend '" + overlays.blend + "'", map.Where("blend"), "use inverse_realism or alpha");
+  }
   map.RejectUnknown();
   return overlays;
 }

@@ -39,6 +39,12 @@ struct Scene {
     std::string surface_mesh, surface_texture;
     std::vector<std::string> internal_meshes;
     std::string internal_points;  // "file.h5:/dataset"
+    // What a run draws, bottom first, of texture, volume and meshes; empty:
+    // every overlay the assets allow, in that order.
+    std::vector<std::string> order;
+    // How the internal anatomy (volume, meshes) is laid over the video:
+    // inverse_realism (under the tissue's own edges and highlights) or alpha.
+    std::string blend = "inverse_realism";
   };
   std::optional<Overlays> overlays;
 

@@ -48,7 +48,7 @@ AnnotatedVideo::~AnnotatedVideo() {
 }
 
 void AnnotatedVideo::Add(const FramePacket& packet) {
-  packet.raw.left.copyTo(canvas_);
+  (packet.composite.empty() ? packet.raw.left : packet.composite).copyTo(canvas_);
   DrawTracks(packet, canvas_);
   if (policy_ == Policy::kRealtime) {
     ring_.PushOrDrop(canvas_);

@@ -15,7 +15,8 @@
 
 namespace dg::pipeline {
 
-// The video a person watches after a run: the left frame as recorded, with
+// The video a person watches after a run: the left frame (with the overlays
+// composed over it, when the run has them), with
 // the tracked features drawn (corners green, MSER regions orange) and the
 // frame's number, time and track count. Drawing happens in the caller (the
 // graph's sink); encoding on a thread of its own, fed through a bounded

@@ -3,6 +3,7 @@
 #include <array>
 #include <cstdint>
 #include <memory>
+#include <vector>
 
 #include <opencv2/core.hpp>
 
@@ -57,6 +58,8 @@ struct FramePacket {
   // starts (at the first registered frame). Shared with the overlays, which
   // may still draw it after the packet is reused.
   std::shared_ptr<const stages::FemFrameOutput> simulation;
+  cv::Mat composite;  // the video frame with the overlays' newest layers (BGR); empty without overlays
+  std::vector<std::int64_t> layer_age_frames;  // per overlay: frames since its layer's geometry; -1 none yet
 
   std::array<StageTiming, kMaxStages> timings;
   int timing_count = 0;

@@ -95,12 +95,22 @@ SceneGraph BuildSceneGraph(const io::Scene& scene, const GraphOptions& options, 
       stages.push_back(MakeRegisterStage(with_defaults, built.calibration, settings));
     }
   }
+  std::shared_ptr<stages::overlay::Compositor> compositor;
   if (scene.simulation) {
     built.simulation = LoadSimulationSetup(scene);
+    OverlayPlan overlays = PlanOverlays(scene, built.simulation, built.calibration.left);
+    if (!overlays.factories.empty()) compositor = std::make_shared<stages::overlay::Compositor>(overlays.compositor);
+    for (size_t k = 0; k < overlays.factories.size(); ++k) {
+      built.overlays.push_back(std::make_shared<OverlayBranch>(overlays.compositor.layers[k].name, static_cast<int>(k),
+                                                               std::move(overlays.factories[k]), compositor));
+    }
     stages.push_back(std::make_unique<ConstraintAdapter>(built.simulation, built.given_registration));
-    stages.push_back(std::make_unique<FemAdapter>(built.simulation));
+    stages.push_back(std::make_unique<FemAdapter>(built.simulation, built.overlays));
   }
-  built.graph = std::make_unique<StageGraph>(std::move(source), std::move(stages), options);
+  if (compositor) stages.push_back(std::make_unique<CompositeAdapter>(compositor));
+  built.graph = std::make_unique<StageGraph>(std::move(source), std::move(stages), options,
+                                             std::vector<std::shared_ptr<SideBranch>>(built.overlays.begin(),
+                                                                                      built.overlays.end()));
   return built;
 }
 

@@ -4,6 +4,7 @@
 
 #include "io/calibration.h"
 #include "io/scene.h"
+#include "pipeline/overlay_stages.h"
 #include "pipeline/simulation_stages.h"
 #include "pipeline/stage_graph.h"
 
@@ -25,13 +26,16 @@ struct SceneGraph {
   std::shared_ptr<const io::Registration> given_registration;
   // What the simulation stages run on; null when the scene has no simulation.
   std::shared_ptr<const SimulationSetup> simulation;
+  // The overlays' side branches, in drawing order (empty without overlays).
+  std::vector<std::shared_ptr<OverlayBranch>> overlays;
 };
 
 // The graph a scene needs and nothing more (DESIGN.md section 4): capture,
 // rectification unless the recording is rectified already, and tracking;
 // with a simulation, constraint mapping and the FEM step, preceded by
 // registration unless the scene gives a registration file (a scene may also
-// ask for registration alone).
+// ask for registration alone); with a simulation and overlays, the overlays'
+// side branches and the composite stage.
 // @throws dg::Error for unreadable inputs, a calibration of another image
 // size than the video, a rectified recording whose calibration has no
 // rectification (P1, P2), a depth range that OptionsForDepthRange refuses,

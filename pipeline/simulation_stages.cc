@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include "io/gmsh_reader.h"
+#include "pipeline/overlay_stages.h"
 #include "sim/coupled_simulation.h"
 #include "sim/error.h"
 #include "sim/log.h"
@@ -132,6 +133,7 @@ void FemAdapter::Process(FramePacket& packet) {
   }
   packet.simulation = std::make_shared<const stages::FemFrameOutput>(
       fem_->Process(static_cast<int>(packet.index - first_frame_), packet.targets));
+  for (const auto& overlay : overlays_) overlay->Publish(packet);
 }
 
 }  // namespace dg::pipeline

@@ -17,6 +17,8 @@
 
 namespace dg::pipeline {
 
+class OverlayBranch;
+
 // The stages after tracking (DESIGN.md section 4): registration, constraint
 // mapping and the FEM step, as the graph sees them. The simulation starts at
 // the first frame that carries a registration: its cardiac phase is the
@@ -84,10 +86,13 @@ class ConstraintAdapter final : public PacketStage {
 };
 
 // simulate: packet.targets -> packet.simulation: the FEM stage advanced to the
-// frame's time, in round(1 / (fps dt)) substeps. Stateful.
+// frame's time, in round(1 / (fps dt)) substeps, then handed to the overlays'
+// rings (never waiting for them). Stateful.
 class FemAdapter final : public PacketStage {
  public:
-  explicit FemAdapter(std::shared_ptr<const SimulationSetup> setup) : setup_(std::move(setup)) {}
+  // overlays: the side branches each frame's geometry is handed to.
+  FemAdapter(std::shared_ptr<const SimulationSetup> setup, std::vector<std::shared_ptr<OverlayBranch>> overlays)
+      : setup_(std::move(setup)), overlays_(std::move(overlays)) {}
   const std::string& name() const override { return name_; }
   bool stateful() const override { return true; }
   void Process(FramePacket& packet) override;
@@ -95,6 +100,7 @@ class FemAdapter final : public PacketStage {
  private:
   std::string name_ = "simulate";
   std::shared_ptr<const SimulationSetup> setup_;
+  std::vector<std::shared_ptr<OverlayBranch>> overlays_;
   std::unique_ptr<stages::FemStage> fem_;
   std::int64_t first_frame_ = 0;
 };

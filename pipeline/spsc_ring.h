@@ -53,10 +53,15 @@ class SpscRing {
 
   // Consumer side: discards all but the newest value and swaps that into
   // `out` (the latest-value hand-over an overlay wants); false when empty.
-  // Values skipped over are counted as dropped.
+  // Values skipped over are released (not left in their slots) and counted
+  // as dropped.
   bool TryPopLatest(T& out) {
     if (!TryPop(out)) return false;
-    while (TryPop(out)) dropped_.fetch_add(1, std::memory_order_relaxed);
+    while (head_.load(std::memory_order_relaxed) != tail_.load(std::memory_order_acquire)) {
+      out = T{};  // the value skipped over; TryPop then leaves this empty one in the slot
+      TryPop(out);
+      dropped_.fetch_add(1, std::memory_order_relaxed);
+    }
     return true;
   }
 

@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <exception>
+#include <map>
 #include <mutex>
 #include <sstream>
 #include <thread>
@@ -35,8 +36,8 @@ std::string GraphOptions::Validate() const {
 }
 
 StageGraph::StageGraph(std::unique_ptr<PacketSource> source, std::vector<std::unique_ptr<PacketStage>> stages,
-                       const GraphOptions& options)
-    : source_(std::move(source)), stages_(std::move(stages)), options_(options) {
+                       const GraphOptions& options, std::vector<std::shared_ptr<SideBranch>> branches)
+    : source_(std::move(source)), stages_(std::move(stages)), branches_(std::move(branches)), options_(options) {
   if (const std::string wrong = options_.Validate(); !wrong.empty()) {
     throw Error("invalid graph options: " + wrong, "pipeline", "check --frames");
   }
@@ -75,13 +76,25 @@ void StageGraph::Plan() {
     edges_.push_back({previous, node});
     previous = node;
   };
+  std::map<std::string, int> stage_nodes;
   for (const auto& stage : stages_) {
     const bool sequence = stage->stateful() && reordered;
     sequenced_before_.push_back(sequence);
     if (sequence) chain(add("order_before_" + stage->name(), "sequencer"));
     chain(add(stage->name(), stage->stateful() ? "stateful" : "stateless"));
+    stage_nodes[stage->name()] = previous;
     reordered = sequence ? false : reordered || !stage->stateful();
   }
+  for (const auto& branch : branches_) {
+    const auto feeder = stage_nodes.find(branch->fed_by());
+    if (feeder == stage_nodes.end()) {
+      throw Error("side branch '" + branch->name() + "' is fed by '" + branch->fed_by() + "', which is not in the graph",
+                  "pipeline", "add the feeding stage, or leave the branch out");
+    }
+    edges_.push_back({feeder->second, add(branch->name(), "side")});
+  }
+  const int last_stage = previous;
+  previous = last_stage;
   sequenced_before_.push_back(reordered);
   if (reordered) chain(add("order_before_sink", "sequencer"));
   chain(add("sink", "sink"));
@@ -144,11 +157,23 @@ class StageGraph::Runner {
     });
     chain(*sink_node_);
     flow::make_edge(*sink_node_, free_);
+
+    // A side branch is a serial node that rejects what arrives while it runs: a wake, not a queue.
+    for (const auto& branch : plan_.branches_) {
+      side_nodes_.push_back(std::make_unique<SideNode>(graph_, flow::serial, [this, branch](flow::continue_msg) {
+        DrainSide(*branch);
+        return flow::continue_msg();
+      }));
+      branch->wake_ = [node = side_nodes_.back().get()] { node->try_put(flow::continue_msg()); };
+    }
   }
 
   // Tasks the nodes spawned on their own (a buffer forwarding to a new
   // successor) finish before the nodes are destroyed.
-  ~Runner() { graph_.wait_for_all(); }
+  ~Runner() {
+    graph_.wait_for_all();
+    for (const auto& branch : plan_.branches_) branch->wake_ = nullptr;
+  }
 
   GraphRunResult Run() {
     start_ = std::chrono::steady_clock::now();
@@ -157,6 +182,7 @@ class StageGraph::Runner {
       ticker_.activate();
       graph_.wait_for_all();
     }
+    for (const auto& branch : plan_.branches_) DrainSide(*branch);  // what the last wakes left
     return Finish();
   }
 
@@ -165,6 +191,8 @@ class StageGraph::Runner {
   // is measured against.
   GraphRunResult RunInline() {
     start_ = std::chrono::steady_clock::now();
+    // Inline, a wake drains at once: every value handed over is taken.
+    for (const auto& branch : plan_.branches_) branch->wake_ = [this, b = branch.get()] { DrainSide(*b); };
     if (SkipToFirstFrame()) {
       FramePacket& packet = packets_.front();
       const int sink_index = static_cast<int>(plan_.stage_names_.size()) - 1;
@@ -186,6 +214,8 @@ class StageGraph::Runner {
       sink_.RecordDrop(position_ - trailing_drops_ + k, NowNs());
     }
     result_.wall_s = NowNs() * 1e-9;
+    result_.start_steady_ns =
+        std::chrono::duration_cast<std::chrono::nanoseconds>(start_.time_since_epoch()).count();
     return std::move(result_);
   }
 
@@ -194,6 +224,7 @@ class StageGraph::Runner {
   using SourceNode = flow::multifunction_node<std::tuple<Packet, Tick>, std::tuple<Packet, Packet>>;
   using StageNode = flow::function_node<Packet, Packet>;
   using Sequencer = flow::sequencer_node<Packet>;
+  using SideNode = flow::function_node<flow::continue_msg, flow::continue_msg, flow::rejecting>;
 
   std::int64_t NowNs() const {
     return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now() - start_).count();
@@ -300,6 +331,15 @@ class StageGraph::Runner {
                                              tbb::this_task_arena::current_thread_index(), start, NowNs()};
   }
 
+  // A side branch that throws stops the source; the frames already read still complete.
+  void DrainSide(SideBranch& branch) {
+    try {
+      branch.Drain();
+    } catch (const std::exception& e) {
+      Fail("side branch '" + branch.name() + "' failed: " + e.what(), kNone - 1);
+    }
+  }
+
   // Runs one stage's work on a packet; an exception stops the graph, naming stage and frame.
   template <typename Work>
   void Guard(const std::string& stage, const FramePacket& packet, std::int64_t frame, Work&& work) {
@@ -351,6 +391,7 @@ class StageGraph::Runner {
   std::vector<std::unique_ptr<Sequencer>> sequencers_;
   std::vector<std::unique_ptr<StageNode>> stage_nodes_;
   std::unique_ptr<StageNode> sink_node_;
+  std::vector<std::unique_ptr<SideNode>> side_nodes_;
 };
 
 GraphRunResult StageGraph::Run(GraphSink& sink) {

@@ -1,6 +1,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <span>
 #include <string>
@@ -42,11 +43,38 @@ class GraphSink {
   virtual void RecordDrop(std::int64_t frame, std::int64_t at_ns) = 0;
 };
 
+// Work beside the graph's chain of frames (DESIGN.md section 4: the
+// overlays): a stage hands it values through the branch's own bounded SPSC
+// ring and calls Wake(). The graph then runs Drain() as a task of its own,
+// never two at once; a wake while Drain() runs is dropped, not queued (Drain()
+// takes whatever the ring holds, so the slow branch skips to the newest value
+// and never holds the chain back). After the last frame the graph calls
+// Drain() once more, so nothing handed over is left behind. Drain() must take
+// everything its ring holds when it starts.
+class SideBranch {
+ public:
+  virtual ~SideBranch() = default;
+  virtual const std::string& name() const = 0;
+  // The stage that feeds it (for the graph's description).
+  virtual const std::string& fed_by() const = 0;
+  // @throws anything: the graph stops reading frames, and the run fails naming the branch.
+  virtual void Drain() = 0;
+  // For the feeding stage, after it pushed into the ring.
+  void Wake() const {
+    if (wake_) wake_();
+  }
+
+ private:
+  friend class StageGraph;
+  std::function<void()> wake_;
+};
+
 // How a run ended.
 struct GraphRunResult {
   std::int64_t frames_done = 0;
   std::int64_t frames_dropped = 0;
   double wall_s = 0;
+  std::int64_t start_steady_ns = 0;  // the run clock's zero (timings' start_ns) on the steady clock
   bool complete = false;
   std::string error;  // when not complete: which stage failed at which frame, and why
 };
@@ -64,16 +92,17 @@ struct GraphRunResult {
 // the run result names the stage and the frame. Nothing aborts.
 class StageGraph {
  public:
-  // @throws dg::Error for invalid options, no source or more stages than a packet can time.
+  // @throws dg::Error for invalid options, no source, more stages than a
+  // packet can time, or a side branch fed by a stage the graph does not have.
   StageGraph(std::unique_ptr<PacketSource> source, std::vector<std::unique_ptr<PacketStage>> stages,
-             const GraphOptions& options);
+             const GraphOptions& options, std::vector<std::shared_ptr<SideBranch>> branches = {});
   ~StageGraph();
 
   // The names a timing's stage index refers to: the source, the stages, "sink".
   const std::vector<std::string>& stage_names() const { return stage_names_; }
 
   struct Node {
-    std::string name, kind;  // kind: ticker, join, source, stateless, stateful, sequencer, sink, buffer
+    std::string name, kind;  // kind: ticker, join, source, stateless, stateful, sequencer, sink, buffer, side
   };
   struct Edge {
     int from, to;  // indices into nodes()
@@ -99,6 +128,7 @@ class StageGraph {
 
   std::unique_ptr<PacketSource> source_;
   std::vector<std::unique_ptr<PacketStage>> stages_;
+  std::vector<std::shared_ptr<SideBranch>> branches_;
   GraphOptions options_;
   std::vector<std::string> stage_names_;
   std::vector<Node> nodes_;

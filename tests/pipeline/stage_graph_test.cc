@@ -3,6 +3,7 @@
 // stage, and built with exactly the stages a scene needs.
 #include "pipeline/stage_graph.h"
 
+#include <algorithm>
 #include <array>
 #include <atomic>
 #include <chrono>
@@ -163,10 +164,18 @@ std::vector<std::string> NodeNames(const StageGraph& graph) {
 
 TEST_CASE("graph: built with exactly the stages the scene needs", "[pipeline][integration]") {
   const io::Scene scene = TinyScene();
-  // The phantom's scene: registration from the video, then the combined simulation.
+  // The phantom's scene: registration from the video, then the combined
+  // simulation, whose geometry the three overlays draw beside the chain.
   const SceneGraph full = BuildSceneGraph(scene, {});
-  REQUIRE(full.graph->stage_names() ==
-          std::vector<std::string>{"capture", "rectify", "track", "register", "constraints", "simulate", "sink"});
+  REQUIRE(full.graph->stage_names() == std::vector<std::string>{"capture", "rectify", "track", "register",
+                                                                "constraints", "simulate", "composite", "sink"});
+  std::vector<std::string> sides;
+  for (const StageGraph::Edge& edge : full.graph->edges()) {
+    if (full.graph->nodes()[edge.to].kind != "side") continue;
+    REQUIRE(full.graph->nodes()[edge.from].name == "simulate");
+    sides.push_back(full.graph->nodes()[edge.to].name);
+  }
+  REQUIRE(sides == std::vector<std::string>{"texture", "volume", "meshes"});
   REQUIRE(full.simulation->motion != nullptr);  // combined: the scan's motion drives the inverse simulation
   REQUIRE(full.given_registration == nullptr);
 
@@ -190,8 +199,21 @@ TEST_CASE("graph: built with exactly the stages the scene needs", "[pipeline][in
         "scene_registered.yaml", WithoutBlock(scene.text, "registration") + "registration:\n  file: registration.yaml\n");
     const SceneGraph built = BuildSceneGraph(given, {});
     REQUIRE(built.graph->stage_names() ==
-            std::vector<std::string>{"capture", "rectify", "track", "constraints", "simulate", "sink"});
+            std::vector<std::string>{"capture", "rectify", "track", "constraints", "simulate", "composite", "sink"});
     REQUIRE(built.given_registration != nullptr);
+  }
+
+  SECTION("the scene's overlay order chooses the overlays; none, no composite stage") {
+    std::string text = scene.text;
+    text.replace(text.find("overlays:\n"), 10, "overlays:\n  order: [meshes]\n");
+    const SceneGraph meshes_only = BuildSceneGraph(SceneFromText("scene_meshes.yaml", text), {});
+    REQUIRE(meshes_only.overlays.size() == 1);
+    REQUIRE(meshes_only.overlays[0]->name() == "meshes");
+    const SceneGraph none = BuildSceneGraph(SceneFromText("scene_no_overlays.yaml", WithoutBlock(scene.text, "overlays")), {});
+    REQUIRE(none.overlays.empty());
+    REQUIRE(none.graph->stage_names().back() == "sink");
+    REQUIRE(std::find(none.graph->stage_names().begin(), none.graph->stage_names().end(), "composite") ==
+            none.graph->stage_names().end());
   }
 
   SECTION("surface mode loads no motion model: there is no inverse simulation") {

@@ -118,11 +118,11 @@ TEST_CASE("run: the tiny phantom end to end, and its report", "[tools][integrati
   CHECK(StringAttribute(file, "/", "policy") == "offline");
   CHECK_FALSE(StringAttribute(file, "/", "version").empty());
   CHECK(StringAttribute(file, "/timings", "stage_names") ==
-        "capture,rectify,track,register,constraints,simulate,sink");
+        "capture,rectify,track,register,constraints,simulate,composite,sink");
   // One row per stage per frame, in every column.
   for (const char* column : {"/timings/frame", "/timings/stage", "/timings/thread", "/timings/start_ns",
                              "/timings/end_ns"}) {
-    CHECK(Rows(file, column) == static_cast<hsize_t>(frames) * 7);
+    CHECK(Rows(file, column) == static_cast<hsize_t>(frames) * 8);
   }
   CHECK(Rows(file, "/drops/frame") == 0);
   const hsize_t track_rows = Rows(file, "/tracks/id");
@@ -147,6 +147,16 @@ TEST_CASE("run: the tiny phantom end to end, and its report", "[tools][integrati
   for (double internal_max_mm : Doubles(file, "/errors/internal_max_mm")) CHECK(internal_max_mm < 1.75);
   for (double surface_mean_mm : Doubles(file, "/errors/surface_mean_mm")) CHECK(surface_mean_mm < 0.68);
   for (double margin : Doubles(file, "/sim/dt_over_dt_critical")) CHECK(margin < 1);
+  // Every frame composed; each overlay drew or dropped every geometry handed to it.
+  CHECK(Rows(file, "/composite/layer_age_frames") == static_cast<hsize_t>(frames));
+  CHECK(StringAttribute(file, "/composite", "overlay_names") == "texture,volume,meshes");
+  for (const std::string overlay : {"texture", "volume", "meshes"}) {
+    const long long published = IntAttribute(file, "/overlay_timings", (overlay + "_published").c_str());
+    const long long drawn = IntAttribute(file, "/overlay_timings", (overlay + "_drawn").c_str());
+    CHECK(published == static_cast<long long>(simulated));
+    CHECK(drawn >= 1);
+    CHECK(drawn + IntAttribute(file, "/overlay_timings", (overlay + "_dropped").c_str()) == published);
+  }
   H5Fclose(file);
 
   SECTION("the report recomputes the run's summary from the log, and plots it") {
@@ -203,7 +213,7 @@ TEST_CASE("run: a failing stage leaves a readable log marked incomplete", "[tool
   REQUIRE(file >= 0);
   CHECK(IntAttribute(file, "/", "complete") == 0);
   CHECK_THAT(StringAttribute(file, "/", "error"), Catch::Contains("frame 7"));
-  CHECK(Rows(file, "/timings/frame") == 7 * 7);  // capture, rectify, track, register, constraints, simulate, sink
+  CHECK(Rows(file, "/timings/frame") == 7 * 8);  // capture ... simulate, composite, sink
   H5Fclose(file);
 }
 

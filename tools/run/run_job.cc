@@ -11,6 +11,7 @@
 #include "io/scene.h"
 #include "pipeline/annotated_video.h"
 #include "pipeline/error_log.h"
+#include "pipeline/overlay_log.h"
 #include "pipeline/run_log_sink.h"
 #include "pipeline/simulation_log.h"
 #include "sim/error.h"
@@ -72,6 +73,11 @@ RunOutcome RunScene(const RunOptions& options) {
     error_log.emplace(log, scene.truth, built.simulation->mesh, built.calibration.left);
     consumers.push_back([&](const pipeline::FramePacket& packet) { error_log->Consume(packet); });
   }
+  std::optional<pipeline::OverlayLog> overlay_log;
+  if (!built.overlays.empty()) {
+    overlay_log.emplace(log, built.overlays);
+    consumers.push_back([&](const pipeline::FramePacket& packet) { overlay_log->Consume(packet); });
+  }
   std::optional<pipeline::AnnotatedVideo> video;
   if (options.video) {
     outcome.video_path = (fs::path(options.out_dir) / "annotated.avi").string();
@@ -92,6 +98,7 @@ RunOutcome RunScene(const RunOptions& options) {
   pipeline::RunLogSink sink(log, std::move(consumers));
   const pipeline::GraphRunResult result = built.graph->Run(sink);
   progress.Finish();
+  if (overlay_log) overlay_log->Finish(result.start_steady_ns);
   if (video) {
     video->Close();
     outcome.video_frames_dropped = static_cast<std::int64_t>(video->dropped());

@@ -1,0 +1,40 @@
+#include "pipeline/overlay_log.h"
+
+namespace dg::pipeline {
+
+OverlayLog::OverlayLog(io::RunLog& log, std::vector<std::shared_ptr<OverlayBranch>> overlays)
+    : log_(log),
+      overlays_(std::move(overlays)),
+      ages_(log.AddTable("/composite", {{"frame", io::H5Type::kInt64},
+                                        {"layer_age_frames", io::H5Type::kInt64, overlays_.size()}})) {
+  std::string names;
+  for (const auto& overlay : overlays_) names += (names.empty() ? "" : ",") + overlay->name();
+  log_.file().WriteAttribute("/composite", "overlay_names", names);
+}
+
+void OverlayLog::Consume(const FramePacket& packet) {
+  if (packet.layer_age_frames.size() != overlays_.size()) return;  // not composed (the run stopped early)
+  ages_.AppendRow({packet.index, packet.layer_age_frames});
+}
+
+void OverlayLog::Finish(std::int64_t start_steady_ns) {
+  using io::H5Type;
+  io::H5Table& table = log_.AddTable("/overlay_timings", {{"frame", H5Type::kInt64},
+                                                           {"overlay", H5Type::kInt32},
+                                                           {"start_ns", H5Type::kInt64},
+                                                           {"end_ns", H5Type::kInt64}});
+  for (size_t k = 0; k < overlays_.size(); ++k) {
+    const OverlayBranch& overlay = *overlays_[k];
+    for (const OverlayTiming& t : overlay.timings()) {
+      table.AppendRow({t.frame, static_cast<std::int32_t>(k), t.start_steady_ns - start_steady_ns,
+                       t.end_steady_ns - start_steady_ns});
+    }
+    const std::string& name = overlay.name();
+    log_.file().WriteAttribute("/overlay_timings", name + "_published", overlay.published());
+    log_.file().WriteAttribute("/overlay_timings", name + "_dropped", static_cast<std::int64_t>(overlay.dropped()));
+    log_.file().WriteAttribute("/overlay_timings", name + "_drawn", overlay.drawn());
+  }
+  table.Flush();
+}
+
+}  // namespace dg::pipeline

@@ -1,0 +1,159 @@
+#include "pipeline/overlay_stages.h"
+
+#include <algorithm>
+#include <chrono>
+
+#include <opencv2/imgcodecs.hpp>
+
+#include "io/metaimage.h"
+#include "io/registration_file.h"
+#include "io/surface_mesh.h"
+#include "sim/error.h"
+#include "stages/fem_stage.h"
+#include "stages/overlay/surface_overlay.h"
+#include "stages/overlay/transfer_function.h"
+#include "stages/overlay/volume_overlay.h"
+
+namespace dg::pipeline {
+namespace {
+
+namespace overlay = stages::overlay;
+
+std::int64_t SteadyNowNs() {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now().time_since_epoch())
+      .count();
+}
+
+// Distinct colours for the internal structures (BGR).
+const Eigen::Vector3f kStructureColors[] = {{0.95f, 0.55f, 0.25f}, {0.3f, 0.85f, 0.95f}, {0.5f, 0.95f, 0.4f}};
+
+template <typename Overlay>
+OverlayDraw DrawWith(std::shared_ptr<Overlay> overlay) {
+  return [overlay](const Eigen::Matrix3Xd& nodes_S, std::int64_t frame) { return overlay->Process(nodes_S, frame); };
+}
+
+OverlayFactory MeshesFactory(const io::Scene::Overlays& assets, std::shared_ptr<const SimulationSetup> setup,
+                             const io::CameraCalibration& left) {
+  std::vector<overlay::OverlaySurface> surfaces;
+  for (const std::string& file : assets.internal_meshes) {
+    overlay::OverlaySurface surface;
+    surface.mesh = io::ReadObj(file);
+    surface.color_bgr = kStructureColors[surfaces.size() % std::size(kStructureColors)];
+    surface.name = file;
+    surfaces.push_back(std::move(surface));
+  }
+  return [=](const Eigen::Isometry3d& T_C_S) {
+    return DrawWith(std::make_shared<overlay::SurfaceOverlay>(overlay::SurfaceOverlay::Options{}, setup->mesh,
+                                                              surfaces, overlay::LensView(left, T_C_S)));
+  };
+}
+
+OverlayFactory TextureFactory(const io::Scene::Overlays& assets, std::shared_ptr<const SimulationSetup> setup,
+                              const io::CameraCalibration& left) {
+  overlay::OverlaySurface surface;
+  surface.mesh = io::ReadObj(assets.surface_mesh);
+  surface.texture = cv::imread(assets.surface_texture, cv::IMREAD_COLOR);
+  if (surface.texture.empty()) {
+    throw Error("cannot read the surface texture", assets.surface_texture, "give a PNG or JPEG image");
+  }
+  surface.name = assets.surface_mesh;
+  overlay::SurfaceOverlay::Options options;
+  options.lit = false;  // landmarks and annotations in their own colours
+  return [=](const Eigen::Isometry3d& T_C_S) {
+    return DrawWith(std::make_shared<overlay::SurfaceOverlay>(options, setup->mesh, std::vector{surface},
+                                                              overlay::LensView(left, T_C_S)));
+  };
+}
+
+OverlayFactory VolumeFactory(const std::string& ct_file, std::shared_ptr<const SimulationSetup> setup,
+                             const io::CameraCalibration& left) {
+  // The first scan phase is the mesh's reference configuration.
+  auto ct = std::make_shared<const io::VolumeI16>(io::ReadMetaImage<std::int16_t>(ct_file));
+  overlay::VolumeOverlay::Options options;
+  options.slice_spacing_m = 1e-3;  // 28 frames/s on two cores (dynaguide bench overlay)
+  return [=](const Eigen::Isometry3d& T_C_S) {
+    return DrawWith(std::make_shared<overlay::VolumeOverlay>(
+        options, setup->mesh, *ct, overlay::TransferFunction::CardiacDefault(), overlay::LensView(left, T_C_S)));
+  };
+}
+
+}  // namespace
+
+OverlayBranch::OverlayBranch(std::string name, int index, OverlayFactory factory,
+                             std::shared_ptr<overlay::Compositor> compositor, std::size_t ring_capacity)
+    : name_(std::move(name)),
+      index_(index),
+      factory_(std::move(factory)),
+      compositor_(std::move(compositor)),
+      ring_(ring_capacity) {}
+
+void OverlayBranch::Publish(const FramePacket& packet) {
+  if (!packet.simulation || !packet.registration) return;
+  Geometry geometry{packet.simulation, packet.registration, packet.index};
+  ++published_;
+  ring_.PushOrDrop(geometry);
+  Wake();
+}
+
+void OverlayBranch::Drain() {
+  // Empty before each pop: what the pop leaves in the ring's slot must not be a geometry.
+  for (Geometry geometry; ring_.TryPopLatest(geometry); geometry = {}) {
+    const std::int64_t start = SteadyNowNs();
+    if (!draw_) draw_ = factory_(Eigen::Isometry3d(geometry.registration->T_C_S));
+    compositor_->Offer(index_, draw_(geometry.simulation->nodes_S_m, geometry.frame));
+    ++drawn_;
+    std::lock_guard lock(timings_mutex_);
+    timings_.push_back({geometry.frame, start, SteadyNowNs()});
+  }
+}
+
+std::vector<OverlayTiming> OverlayBranch::timings() const {
+  std::lock_guard lock(timings_mutex_);
+  return timings_;
+}
+
+OverlayPlan PlanOverlays(const io::Scene& scene, std::shared_ptr<const SimulationSetup> setup,
+                         const io::CameraCalibration& left) {
+  OverlayPlan plan;
+  if (!scene.overlays) return plan;
+  const io::Scene::Overlays& assets = *scene.overlays;
+  const bool has_texture = !assets.surface_mesh.empty() && !assets.surface_texture.empty();
+  const bool has_volume = scene.preoperative && !scene.preoperative->ct_volumes.empty();
+  const bool has_meshes = !assets.internal_meshes.empty();
+  std::vector<std::string> order = assets.order;
+  if (order.empty()) {
+    if (has_texture) order.push_back("texture");
+    if (has_volume) order.push_back("volume");
+    if (has_meshes) order.push_back("meshes");
+  }
+  const overlay::BlendMode anatomy_blend =
+      assets.blend == "alpha" ? overlay::BlendMode::kAlpha : overlay::BlendMode::kInverseRealism;
+  for (const std::string& name : order) {
+    const bool available = name == "texture" ? has_texture : name == "volume" ? has_volume : has_meshes;
+    if (!available) {
+      throw Error("overlays.order asks for '" + name + "' but the scene has no asset for it", scene.path,
+                  name == "texture"  ? "give overlays.surface_mesh and overlays.surface_texture"
+                  : name == "volume" ? "give preoperative.ct"
+                                     : "give overlays.internal_meshes");
+    }
+    if (name == "texture") {
+      plan.compositor.layers.push_back({name, overlay::BlendMode::kAlpha});
+      plan.factories.push_back(TextureFactory(assets, setup, left));
+    } else if (name == "volume") {
+      plan.compositor.layers.push_back({name, anatomy_blend});
+      plan.factories.push_back(VolumeFactory(scene.preoperative->ct_volumes.front(), setup, left));
+    } else {
+      plan.compositor.layers.push_back({name, anatomy_blend});
+      plan.factories.push_back(MeshesFactory(assets, setup, left));
+    }
+  }
+  return plan;
+}
+
+void CompositeAdapter::Process(FramePacket& packet) {
+  overlay::CompositeFrame composed = compositor_->Compose(packet.raw.left, packet.index);
+  packet.composite = std::move(composed.bgr);
+  packet.layer_age_frames = std::move(composed.layer_age_frames);
+}
+
+}  // namespace dg::pipeline

@@ -1,0 +1,107 @@
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include <Eigen/Geometry>
+
+#include "io/calibration.h"
+#include "io/scene.h"
+#include "pipeline/packet_stage.h"
+#include "pipeline/simulation_stages.h"
+#include "pipeline/spsc_ring.h"
+#include "pipeline/stage_graph.h"
+#include "stages/overlay/compositor.h"
+
+namespace dg::pipeline {
+
+// The overlays of a run (paper section 2.7, DESIGN.md section 4): each one a
+// side branch fed by the FEM stage through its own SPSC ring, drawing the
+// newest geometry at its own pace and handing its layer to the compositor;
+// the composite stage lays the newest layers over each video frame.
+
+// Draws one frame's layer from the simulated nodes (scan frame).
+using OverlayDraw = std::function<stages::overlay::OverlayLayer(const Eigen::Matrix3Xd& nodes_S, std::int64_t frame)>;
+// Builds an overlay's drawing once the registration (the camera's pose) is known.
+using OverlayFactory = std::function<OverlayDraw(const Eigen::Isometry3d& T_C_S)>;
+
+// When an overlay drew a frame (steady clock), for the run log's /overlay_timings.
+struct OverlayTiming {
+  std::int64_t frame = 0;
+  std::int64_t start_steady_ns = 0, end_steady_ns = 0;
+};
+
+class OverlayBranch final : public SideBranch {
+ public:
+  // index: the overlay's entry in the compositor's options. ring_capacity:
+  // geometries waiting (more are dropped and counted).
+  OverlayBranch(std::string name, int index, OverlayFactory factory,
+                std::shared_ptr<stages::overlay::Compositor> compositor, std::size_t ring_capacity = 2);
+
+  const std::string& name() const override { return name_; }
+  const std::string& fed_by() const override { return fed_by_; }
+  void Drain() override;
+
+  // Producer side (the FEM stage, serial): never blocks.
+  void Publish(const FramePacket& packet);
+
+  // Geometries handed over, dropped (ring full, or skipped for a newer one) and drawn.
+  std::int64_t published() const { return published_; }
+  std::size_t dropped() const { return ring_.dropped(); }
+  std::int64_t drawn() const { return drawn_.load(); }
+  // Every draw's timing so far (call after the run).
+  std::vector<OverlayTiming> timings() const;
+
+ private:
+  struct Geometry {
+    std::shared_ptr<const stages::FemFrameOutput> simulation;
+    std::shared_ptr<const io::Registration> registration;
+    std::int64_t frame = -1;
+  };
+
+  std::string name_, fed_by_ = "simulate";
+  int index_;
+  OverlayFactory factory_;
+  OverlayDraw draw_;
+  std::shared_ptr<stages::overlay::Compositor> compositor_;
+  SpscRing<Geometry> ring_;
+  std::int64_t published_ = 0;
+  std::atomic<std::int64_t> drawn_{0};
+  mutable std::mutex timings_mutex_;
+  std::vector<OverlayTiming> timings_;
+};
+
+// What the scene's overlays are, in drawing order: "texture" (surface_mesh
+// with surface_texture, alpha-blended), "volume" (the CT, the first phase,
+// through the cardiac transfer function) and "meshes" (internal_meshes, lit);
+// the scene's overlays.order, or those its assets allow in that order.
+struct OverlayPlan {
+  stages::overlay::CompositorOptions compositor;
+  std::vector<OverlayFactory> factories;  // one per compositor entry
+};
+
+// @throws dg::Error for an overlay whose assets the scene lacks, or an unreadable asset.
+// setup: the simulation the overlays draw (its mesh embeds them).
+OverlayPlan PlanOverlays(const io::Scene& scene, std::shared_ptr<const SimulationSetup> setup,
+                         const io::CameraCalibration& left);
+
+// composite: packet.raw.left + the newest layers -> packet.composite. Stateless.
+class CompositeAdapter final : public PacketStage {
+ public:
+  explicit CompositeAdapter(std::shared_ptr<const stages::overlay::Compositor> compositor)
+      : compositor_(std::move(compositor)) {}
+  const std::string& name() const override { return name_; }
+  bool stateful() const override { return false; }
+  void Process(FramePacket& packet) override;
+
+ private:
+  std::string name_ = "composite";
+  std::shared_ptr<const stages::overlay::Compositor> compositor_;
+};
+
+}  // namespace dg::pipeline
