@@ -8,6 +8,7 @@
 #include <tbb/partitioner.h>
 
 #include "sim/error.h"
+#include "sim/tled_kernel.h"
 
 namespace dg::sim {
 namespace {
@@ -158,7 +159,7 @@ void CoupledSimulation<T>::Step(std::span<const double> targets_m) {
   solver.SetElementLoads(inverse.weights().data());
   const int forward_elements = solver.element_chunks(), forward_nodes = solver.node_chunks();
   if (options_.concurrent) {
-    // Both sides' element chunks in one loop, then both sides' node chunks:
+    // Both sides' element chunks in one loop, then the node chunks of both:
     // TBB's auto partitioner balances them, and each pass joins once.
     ForEachChunk(forward_elements + inverse.element_chunks(), [&](int c) {
       if (c < forward_elements) {
@@ -167,12 +168,19 @@ void CoupledSimulation<T>::Step(std::span<const double> targets_m) {
         inverse.ElementChunk(c - forward_elements);
       }
     });
-    ForEachChunk(forward_nodes + inverse.node_chunks(), [&](int c) {
-      if (c < forward_nodes) {
-        solver.NodeChunk(c);
-      } else {
-        inverse.NodeChunk(c - forward_nodes);
+    // Both sides' node chunks cover the same nodes: one walk over each node's
+    // incidences gathers both sides' forces (the sums GatherNodalForce forms).
+    DG_CHECK(forward_nodes == inverse.node_chunks());
+    const TledModel<T>& model = *model_;
+    ForEachChunk(forward_nodes, [&](int c) {
+      const int begin = c * kNodesPerChunk, end = std::min(begin + kNodesPerChunk, model.num_nodes());
+      T forward_forces[3 * kNodesPerChunk], inverse_forces[3 * kNodesPerChunk];
+      for (int a = begin; a < end; ++a) {
+        GatherNodalForces(model, solver.element_forces_.data(), inverse.element_forces_.data(), a,
+                          &forward_forces[3 * (a - begin)], &inverse_forces[3 * (a - begin)]);
       }
+      solver.NodeChunk(c, forward_forces);
+      inverse.NodeChunk(c, inverse_forces);
     });
   } else {
     ForEachChunk(forward_elements, [&](int c) { solver.ElementChunk(c); });

@@ -15,7 +15,6 @@
 namespace dg::sim {
 namespace {
 
-constexpr int kNodesPerChunk = 256;
 
 // Runs body(first_block, end_block) for the model's fixed block chunks in parallel.
 template <typename T, typename Body>

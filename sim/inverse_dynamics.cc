@@ -13,7 +13,6 @@
 namespace dg::sim {
 namespace {
 
-constexpr int kNodesPerChunk = 256;
 
 // Runs body(c) for c in [0, count) under tbb::parallel_for.
 template <typename Body>
@@ -113,7 +112,7 @@ InverseSimulation<T>::InverseSimulation(std::shared_ptr<const TledModel<T>> mode
   next_weights_.assign(model_->force_array_size(), T(0));
   chunk_min_J_.assign(ElementChunks(*model_), T(1));
   chunk_min_ratio_.assign(ElementChunks(*model_), T(1));
-  chunk_node_count_ = (N + kNodesPerChunk - 1) / kNodesPerChunk;
+  chunk_node_count_ = NodeChunks(*model_);
   // Level 0's forces need Um_-1 and Um_0 (the node pass adds Um_1); two passes
   // then bring the weights of level 0 (the first pass resolves zeros).
   pending_level_ = 0;
@@ -141,18 +140,22 @@ void InverseSimulation<T>::ElementChunk(int chunk) {
 }
 
 template <typename T>
-void InverseSimulation<T>::NodeChunk(int chunk) {
+void InverseSimulation<T>::NodeChunk(int chunk, const T* gathered) {
   // R = F(U) + M / (A dt^2) [ (U+ - U) - (2 - alpha dt)/(2 + alpha dt) (U - U-) ] - M g (eq. 4, see ForceRecovery).
   const TledModel<T>& model = *model_;
   const int begin = chunk * kNodesPerChunk;
   const int end = std::min(begin + kNodesPerChunk, model.num_nodes());
+  T own[3 * kNodesPerChunk];
+  if (!gathered) {
+    for (int a = begin; a < end; ++a) GatherNodalForce(model, element_forces_.data(), a, &own[3 * (a - begin)]);
+    gathered = own;
+  }
   T* __restrict u_next = motion_levels_[Slot(pending_level_ + 1)].data();
   const T* __restrict u = motion_levels_[Slot(pending_level_)].data();
   const T* __restrict u_prev = motion_levels_[Slot(pending_level_ - 1)].data();
   motion_->Evaluate<T>(PhaseOf(pending_level_ + 1), 3 * begin, std::span<T>(u_next + 3 * begin, 3 * size_t(end - begin)));
   for (int a = begin; a < end; ++a) {
-    T f[3];
-    GatherNodalForce(model, element_forces_.data(), a, f);
+    const T* f = &gathered[3 * (a - begin)];
     for (int i = 0; i < 3; ++i) {
       const size_t dof = 3 * size_t(a) + i;
       const T increment = (u_next[dof] - u[dof]) - increment_decay_ * (u[dof] - u_prev[dof]);

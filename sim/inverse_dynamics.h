@@ -91,13 +91,19 @@ class InverseSimulation {
   int element_chunks() const { return static_cast<int>(chunk_min_J_.size()); }
   int node_chunks() const { return static_cast<int>(chunk_node_count_); }
   void ElementChunk(int chunk);
-  void NodeChunk(int chunk);
+  // `gathered`: the chunk's nodal forces (3 per node, as GatherNodalForce
+  // sums them) if the caller gathered them; null gathers here.
+  void NodeChunk(int chunk, const T* gathered = nullptr);
   // @throws dg::Error if an element of the motion model's geometry at level() + 2
   // is inverted (J <= 0) or degenerate (volume ratio below
   // ForceResolution::kMinVolumeRatio), naming it; the simulation cannot go on after it.
   void Finish();
 
  private:
+  // CoupledSimulation gathers this side's and the solver's nodal forces together.
+  template <typename>
+  friend class CoupledSimulation;
+
   int Slot(long long level) const { return static_cast<int>(((level % 3) + 3) % 3); }
   double PhaseOf(long long level) const { return motion_->PhaseAt(double(level) * dt_s_, phase_at_start_); }
 

@@ -62,6 +62,14 @@ int ElementChunks(const TledModel<T>& model) {
 template <typename T>
 void ComputeElementForcesParallel(const TledModel<T>& model, const T* u, T* forces, std::span<T> chunk_min_J);
 
+// Nodes per unit of parallel work in the node passes. Partial results (kinetic
+// energy) are kept per chunk, so they combine in the same order whatever the thread count.
+constexpr int kNodesPerChunk = 128;
+template <typename T>
+int NodeChunks(const TledModel<T>& model) {
+  return (model.num_nodes() + kNodesPerChunk - 1) / kNodesPerChunk;
+}
+
 // Sum of the element forces at node a, in the model's fixed order (deterministic).
 template <typename T>
 inline void GatherNodalForce(const TledModel<T>& model, const T* forces, int a, T* f) {
@@ -77,6 +85,33 @@ inline void GatherNodalForce(const TledModel<T>& model, const T* forces, int a, 
   f[0] = fx;
   f[1] = fy;
   f[2] = fz;
+}
+
+// GatherNodalForce of two force arrays in one walk over node a's incidences,
+// each summed in the same order as GatherNodalForce (bitwise the same sums):
+// one loop's control and offsets serve both, and the two chains overlap.
+template <typename T>
+inline void GatherNodalForces(const TledModel<T>& model, const T* forces_a, const T* forces_b, int a, T* f_a,
+                              T* f_b) {
+  constexpr int W = TledModel<T>::kLanes;
+  const int32_t* offsets = model.gather_offsets().data();
+  T ax = 0, ay = 0, az = 0, bx = 0, by = 0, bz = 0;
+  for (int k = model.gather_begin()[a]; k < model.gather_begin()[a + 1]; ++k) {
+    const T* corner_a = forces_a + offsets[k];
+    const T* corner_b = forces_b + offsets[k];
+    ax += corner_a[0];
+    ay += corner_a[W];
+    az += corner_a[2 * W];
+    bx += corner_b[0];
+    by += corner_b[W];
+    bz += corner_b[2 * W];
+  }
+  f_a[0] = ax;
+  f_a[1] = ay;
+  f_a[2] = az;
+  f_b[0] = bx;
+  f_b[1] = by;
+  f_b[2] = bz;
 }
 
 // x^(-1/3) for x > 0, branch-free so the element loop vectorises: a bit-level

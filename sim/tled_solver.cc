@@ -18,14 +18,12 @@
 namespace dg::sim {
 namespace {
 
-// Work is split into fixed chunks so that every partial result (minimum J,
-// kinetic energy) is summed in the same order whatever the thread count.
+// Work is split into fixed chunks (kBlocksPerChunk, kNodesPerChunk) so that
+// every partial result (minimum J, kinetic energy) is summed in the same order
+// whatever the thread count.
 // TBB's auto partitioner hands the chunks out, so a thread that the machine
 // delays (a shared virtual core) takes fewer of them instead of holding up the
 // step, as a fixed half-and-half split would.
-constexpr int kNodesPerChunk = 256;
-
-int NumChunks(int items, int per_chunk) { return (items + per_chunk - 1) / per_chunk; }
 
 std::string Milliseconds(double seconds) {
   char text[32];
@@ -141,7 +139,7 @@ TledSolver<T>::TledSolver(std::shared_ptr<const TledModel<T>> model, BoundaryCon
   external_force_.assign(n_dofs, T(0));
   reaction_.assign(n_dofs, T(0));
   chunk_min_J_.assign(ElementChunks(*model_), T(1));
-  chunk_kinetic_.assign(NumChunks(model_->num_nodes(), kNodesPerChunk), 0.0);
+  chunk_kinetic_.assign(NodeChunks(*model_), 0.0);
   energy_history_.assign(2 * options_.energy_window_steps + 1, 0.0);
 }
 
@@ -241,16 +239,20 @@ void TledSolver<T>::ElementChunk(int chunk) {
 }
 
 template <typename T>
-void TledSolver<T>::NodeChunk(int chunk) {
-  // Gather and central-difference update of every dof as if free, with the
-  // kinetic energy of the free dofs (sum of m v^2, scaled in FinishStep).
+void TledSolver<T>::NodeChunk(int chunk, const T* gathered) {
+  // Gather (unless given) and central-difference update of every dof as if
+  // free, with the kinetic energy of the free dofs (sum of m v^2, scaled in FinishStep).
   const TledModel<T>& model = *model_;
   const int begin = chunk * kNodesPerChunk;
   const int end = std::min(begin + kNodesPerChunk, model.num_nodes());
+  T own[3 * kNodesPerChunk];
+  if (!gathered) {
+    for (int a = begin; a < end; ++a) GatherNodalForce(model, element_forces_.data(), a, &own[3 * (a - begin)]);
+    gathered = own;
+  }
   double twice_kinetic = 0;
   for (int a = begin; a < end; ++a) {
-    T f[3];
-    GatherNodalForce(model, element_forces_.data(), a, f);
+    const T* f = &gathered[3 * (a - begin)];
     T m_v2 = 0;
     for (int i = 0; i < 3; ++i) {
       const int dof = 3 * a + i;

@@ -129,7 +129,9 @@ class TledSolver {
   int element_chunks() const { return static_cast<int>(chunk_min_J_.size()); }
   int node_chunks() const { return static_cast<int>(chunk_kinetic_.size()); }
   void ElementChunk(int chunk);
-  void NodeChunk(int chunk);
+  // `gathered`: the chunk's nodal forces (3 per node, as GatherNodalForce
+  // sums them) if the caller gathered them; null gathers here.
+  void NodeChunk(int chunk, const T* gathered = nullptr);
   void FinishStep(double fraction_end);
   void CheckStep();
   bool EnergyBlowingUp() const;
