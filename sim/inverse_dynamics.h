@@ -57,9 +57,10 @@ extern template class ForceRecovery<double>;
 // in the geometry X + Um_n. The same arithmetic as ForceRecovery followed by
 // ForceResolution::Resolve, arranged for speed:
 //  - an element pass at Um_{n+2} computes the internal forces there and the
-//    edge inverses D^-1, and with the inverses of Um_{n+1} (stored by the
-//    previous pass) resolves the forces of n + 1 into the weights of n + 1:
-//    one pass over the elements instead of two, no edge matrix formed twice;
+//    edge inverses D^-1 (from the cofactors of F the forces need), and with
+//    the inverses of Um_{n+1} (stored by the previous pass) resolves the
+//    forces of n + 1 into the weights of n + 1: one pass over the elements
+//    instead of three (recovery, resolution, application);
 //  - a node pass gathers the forces of n + 2, evaluates Um_{n+3} for its own
 //    nodes only (the slot Um_n leaves), and stores r / n_a, the share of each
 //    element, so the resolution multiplies by no count.
