@@ -46,7 +46,13 @@ struct CompositeFrame {
 // drops the one it replaces, so a slow overlay never holds the video back (its
 // last layer is reused, older each frame, and the age is reported) and memory
 // is bounded by one held layer per overlay. Offer() may be called from any
-// thread while Compose() runs; Compose() is called by one thread at a time.
+// thread while Compose() runs; Compose() is const and may run on several
+// frames at once (its scratch rows are per thread).
+//
+// Compose() is one pass over the frame in bands of rows (in parallel): per
+// band the saliency rows (SaliencyBand) and then every layer over each pixel
+// in order, so the frame, the layers and the saliency are each read once and
+// nothing but the composite is allocated per frame.
 class Compositor {
  public:
   // @throws dg::Error for invalid options.
@@ -66,7 +72,6 @@ class Compositor {
 
  private:
   CompositorOptions options_;
-  bool needs_saliency_ = false;
   mutable std::mutex mutex_;
   std::vector<OverlayLayer> latest_;
 };

@@ -33,4 +33,15 @@ struct InverseRealismOptions {
 // @throws dg::Error if the frame is not 8-bit BGR.
 cv::Mat Saliency(const cv::Mat& frame_bgr, const InverseRealismOptions& options);
 
+// Rows [y_begin, y_end) of Saliency(frame_bgr, options), the same values, into
+// *band ((y_end - y_begin) x cols CV_32FC1; created unless it already is, so a
+// caller that keeps it allocates nothing). For callers that fuse the saliency
+// with their own per-row work a band at a time (the compositor); each band is
+// computed from the frame alone, so bands may run on any threads at once.
+// Allocates nothing once the calling thread has run a band of this size.
+// @pre 0 <= y_begin < y_end <= frame_bgr.rows.
+// @throws dg::Error if the frame is not 8-bit BGR.
+void SaliencyBand(const cv::Mat& frame_bgr, const InverseRealismOptions& options, int y_begin, int y_end,
+                  cv::Mat* band);
+
 }  // namespace dg::stages::overlay

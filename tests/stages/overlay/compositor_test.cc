@@ -3,10 +3,13 @@
 // than one layer per overlay is ever held.
 #include "stages/overlay/compositor.h"
 
+#include <algorithm>
+#include <cmath>
 #include <future>
 #include <thread>
 
 #include <catch2/catch.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "sim/error.h"
 
@@ -35,6 +38,112 @@ TEST_CASE("compositor: alpha blending in the given order", "[stages][unit]") {
   REQUIRE(p[0] == Approx(expect(100, 0.5, 0, 0.5, 0.25)).margin(0.5));
   REQUIRE(p[1] == Approx(expect(150, 0, 0.25, 0.5, 0.25)).margin(0.5));
   REQUIRE(p[2] == Approx(expect(200, 0, 0, 0.5, 0.25)).margin(0.5));
+}
+
+// The header's saliency formula over whole-frame OpenCV filters, as Saliency() once was.
+cv::Mat SaliencyFromOpenCv(const cv::Mat& frame_bgr, const InverseRealismOptions& o) {
+  cv::Mat grey, smooth, blurred, gx, gy;
+  cv::cvtColor(frame_bgr, grey, cv::COLOR_BGR2GRAY);
+  cv::GaussianBlur(grey, smooth, cv::Size(3, 3), 0);
+  cv::GaussianBlur(smooth, blurred, cv::Size(9, 9), 0);
+  cv::Sobel(smooth, gx, CV_16S, 1, 0, 3);
+  cv::Sobel(smooth, gy, CV_16S, 0, 1, 3);
+  cv::Mat saliency(frame_bgr.size(), CV_32F);
+  for (int y = 0; y < frame_bgr.rows; ++y) {
+    for (int x = 0; x < frame_bgr.cols; ++x) {
+      const cv::Vec3b p = frame_bgr.at<cv::Vec3b>(y, x);
+      const float dx = gx.at<std::int16_t>(y, x), dy = gy.at<std::int16_t>(y, x);
+      const float edge = o.w_edge / (8 * 255.0f * o.edge_scale) * std::sqrt(dx * dx + dy * dy);
+      const float detail = o.w_detail / (255.0f * o.detail_scale) *
+                           std::abs(float(smooth.at<std::uint8_t>(y, x)) - float(blurred.at<std::uint8_t>(y, x)));
+      const float value = std::max({p[0], p[1], p[2]}) / 255.0f, low = std::min({p[0], p[1], p[2]}) / 255.0f;
+      const float saturation = value > 0 ? (value - low) / value : 0.0f;
+      const float ramp = std::clamp((value - o.highlight_lo) / (o.highlight_hi - o.highlight_lo), 0.0f, 1.0f);
+      saliency.at<float>(y, x) = std::min(1.0f, edge + detail + o.w_highlight * ramp * (1 - saturation));
+    }
+  }
+  return saliency;
+}
+
+// Noise smoothed a little (edges and texture at every level), with saturated
+// highlights spread over it.
+cv::Mat TexturedFrame(int width, int height, int seed) {
+  cv::RNG rng(seed);
+  cv::Mat frame(height, width, CV_8UC3);
+  rng.fill(frame, cv::RNG::UNIFORM, 0, 256);
+  cv::GaussianBlur(frame, frame, cv::Size(3, 3), 0.8);
+  for (int i = 0; i < width * height / 40; ++i)
+    frame.at<cv::Vec3b>(rng.uniform(0, height), rng.uniform(0, width)) = cv::Vec3b::all(rng.uniform(200, 256));
+  return frame;
+}
+
+// The saliency is computed a band at a time from integer copies of OpenCV's
+// 8-bit filters (grey, 3x3 and 9x9 Gaussians, Sobel): it must equal the
+// filters' own result, borders included. A filter off by one level would move
+// s by at least 1/255 w_detail / detail_scale = 0.04; 1e-6 is the formula's
+// float round-off.
+TEST_CASE("inverse realism: the band-wise saliency equals OpenCV's filters, at every size and band", "[stages][unit]") {
+  const InverseRealismOptions options;
+  int seed = 1;
+  for (const cv::Size size : {cv::Size(1, 1), cv::Size(5, 7), cv::Size(8, 9), cv::Size(9, 8), cv::Size(9, 9),
+                              cv::Size(13, 10), cv::Size(37, 29), cv::Size(80, 70), cv::Size(161, 121)}) {
+    const cv::Mat frame = TexturedFrame(size.width, size.height, seed++);
+    const cv::Mat expected = SaliencyFromOpenCv(frame, options);
+    INFO(size.width << "x" << size.height);
+    REQUIRE(cv::norm(Saliency(frame, options), expected, cv::NORM_INF) <= 1e-6);
+    for (int y_begin = 0; y_begin < size.height; y_begin += 3) {
+      const int y_end = std::min(size.height, y_begin + 1 + y_begin % 7);
+      cv::Mat band;
+      SaliencyBand(frame, options, y_begin, y_end, &band);
+      INFO("rows " << y_begin << " to " << y_end);
+      REQUIRE(cv::norm(band, expected.rowRange(y_begin, y_end), cv::NORM_INF) <= 1e-6);
+    }
+  }
+}
+
+// The fused, banded compose against the blend of the class comment evaluated
+// per pixel in double: each channel is that value rounded, unless it lies
+// within float round-off (1e-3 of a level) of a half level.
+TEST_CASE("compositor: each pixel is the in-order blend of every layer, at any size", "[stages][unit]") {
+  CompositorOptions options;
+  options.layers = {{"under", BlendMode::kAlpha}, {"anatomy", BlendMode::kInverseRealism},
+                    {"mesh", BlendMode::kInverseRealism}, {"over", BlendMode::kAlpha}};
+  int seed = 100;
+  for (const cv::Size size : {cv::Size(1, 1), cv::Size(7, 5), cv::Size(13, 33), cv::Size(70, 97), cv::Size(161, 121)}) {
+    const cv::Mat video = TexturedFrame(size.width, size.height, seed++);
+    Compositor compositor(options);
+    cv::RNG rng(seed++);
+    std::vector<cv::Mat> layers;
+    for (int l = 0; l < 4; ++l) {
+      cv::Mat bgra(size, CV_32FC4);
+      for (auto it = bgra.begin<cv::Vec4f>(); it != bgra.end<cv::Vec4f>(); ++it) {
+        const float a = rng.uniform(0, 3) == 0 ? 0.0f : rng.uniform(0.0f, 1.0f);  // a third uncovered
+        *it = cv::Vec4f(a * rng.uniform(0.0f, 1.0f), a * rng.uniform(0.0f, 1.0f), a * rng.uniform(0.0f, 1.0f), a);
+      }
+      layers.push_back(bgra);
+      compositor.Offer(l, {bgra, 0});
+    }
+    const cv::Mat out = compositor.Compose(video, 0).bgr;
+    const cv::Mat saliency = SaliencyFromOpenCv(video, options.inverse_realism);
+    double worst = 0;
+    for (int y = 0; y < size.height; ++y) {
+      for (int x = 0; x < size.width; ++x) {
+        const double keep = 1 - double(options.inverse_realism.strength) * saliency.at<float>(y, x);
+        for (int k = 0; k < 3; ++k) {
+          double c = video.at<cv::Vec3b>(y, x)[k] / 255.0;
+          for (int l = 0; l < 4; ++l) {
+            const cv::Vec4f p = layers[l].at<cv::Vec4f>(y, x);
+            const double opacity = options.layers[l].blend == BlendMode::kInverseRealism ? keep : 1.0;
+            c = opacity * p[k] + (1 - opacity * p[3]) * c;
+          }
+          const double expected = std::clamp(255 * c, 0.0, 255.0);
+          worst = std::max(worst, std::abs(out.at<cv::Vec3b>(y, x)[k] - expected));
+        }
+      }
+    }
+    INFO(size.width << "x" << size.height);
+    REQUIRE(worst <= 0.5 + 1e-3);
+  }
 }
 
 // A frame half flat, half with a sharp stripe pattern: under Inverse Realism an
