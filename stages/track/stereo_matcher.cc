@@ -45,21 +45,24 @@ constexpr int kBlock = 8, kPad = 2 * kBlock;
 typedef float Floats __attribute__((vector_size(kBlock * sizeof(float))));
 
 // GCC 12 converts a vector of bytes to floats one lane at a time; AVX2 has the instruction.
-Floats LoadBytes(const uchar* p) {
+// (Vectors are passed by pointer: by value they would change the ABI without AVX.)
+void Load(const uchar* p, Floats* v) {
 #if defined(__AVX2__)
-  return _mm256_cvtepi32_ps(_mm256_cvtepu8_epi32(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(p))));
+  *v = _mm256_cvtepi32_ps(_mm256_cvtepu8_epi32(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(p))));
 #else
-  Floats v;
-  for (int k = 0; k < kBlock; ++k) v[k] = p[k];
-  return v;
+  for (int k = 0; k < kBlock; ++k) (*v)[k] = p[k];
 #endif
 }
-Floats LoadFloats(const float* p) {
-  Floats v;
-  std::memcpy(&v, p, sizeof v);
-  return v;
+void Load(const float* p, Floats* v) { std::memcpy(v, p, sizeof *v); }
+
+// One output block of a four-tap filter: out[k] = w0 a[k] + w1 b[k] + w2 c[k] + w3 d[k], k < kBlock.
+template <typename T>
+void FourTaps(const T* a, const T* b, const T* c, const T* d, const std::array<float, 4>& w, float* out) {
+  Floats va, vb, vc, vd;
+  Load(a, &va), Load(b, &vb), Load(c, &vc), Load(d, &vd);
+  const Floats sum = w[0] * va + w[1] * vb + w[2] * vc + w[3] * vd;
+  std::memcpy(out, &sum, sizeof sum);
 }
-void Store(float* p, const Floats& v) { std::memcpy(p, &v, sizeof v); }
 
 // One task's buffers: they grow to the largest window and range met and are
 // then reused, so that matching a point allocates nothing.
@@ -76,13 +79,13 @@ void SampleBilinear(const cv::Mat& image, float cx, float cy, int w, int h, floa
   const int x0 = static_cast<int>(std::floor(ox)), y0 = static_cast<int>(std::floor(oy));
   const float a = ox - static_cast<float>(x0), b = oy - static_cast<float>(y0);
   const float w00 = (1 - a) * (1 - b), w01 = a * (1 - b), w10 = (1 - a) * b, w11 = a * b;
+  const std::array<float, 4> weights = {w00, w01, w10, w11};
   if (x0 >= 0 && y0 >= 0 && x0 + w + kBlock < image.cols && y0 + h < image.rows) {
     for (int r = 0; r < h; ++r, out += w) {
       const uchar* s0 = image.ptr<uchar>(y0 + r) + x0;
       const uchar* s1 = image.ptr<uchar>(y0 + r + 1) + x0;
       for (int c = 0; c < w; c += kBlock)
-        Store(out + c, w00 * LoadBytes(s0 + c) + w01 * LoadBytes(s0 + c + 1) + w10 * LoadBytes(s1 + c) +
-                           w11 * LoadBytes(s1 + c + 1));
+        FourTaps(s0 + c, s0 + c + 1, s1 + c, s1 + c + 1, weights, out + c);
     }
     return;
   }
@@ -184,8 +187,7 @@ void FilterAlongY(const cv::Mat& image, float origin_y, int h, int x_lo, int wid
     if (inside) {
       for (int c = 0; c < width; c += kBlock) {
         const int x = x_lo + c;
-        Store(out + c, wy[0] * LoadBytes(in[0] + x) + wy[1] * LoadBytes(in[1] + x) + wy[2] * LoadBytes(in[2] + x) +
-                           wy[3] * LoadBytes(in[3] + x));
+        FourTaps(in[0] + x, in[1] + x, in[2] + x, in[3] + x, wy, out + c);
       }
     } else {
       for (int c = 0; c < width; ++c) {
@@ -206,8 +208,7 @@ void SampleAlongX(const std::vector<float>& rows, int x_lo, int width, float ori
   for (int r = 0; r < h; ++r, out += w) {
     const float* in = rows.data() + static_cast<size_t>(r) * width + first;
     for (int c = 0; c < w; c += kBlock)
-      Store(out + c, wx[0] * LoadFloats(in + c) + wx[1] * LoadFloats(in + c + 1) + wx[2] * LoadFloats(in + c + 2) +
-                         wx[3] * LoadFloats(in + c + 3));
+      FourTaps(in + c, in + c + 1, in + c + 2, in + c + 3, wx, out + c);
   }
 }
 
