@@ -32,7 +32,7 @@ Moments MomentsOf(const std::vector<double>& values) {
   return m;
 }
 
-std::vector<io::H5Column> ErrorColumns(int internal_points) {
+std::vector<io::H5Column> ErrorColumns(int internal_points, int fiducials) {
   using io::H5Type;
   std::vector<io::H5Column> columns = {{"frame", H5Type::kInt64}, {"t_s", H5Type::kDouble},
                                        {"surface_points", H5Type::kInt32}};
@@ -40,7 +40,10 @@ std::vector<io::H5Column> ErrorColumns(int internal_points) {
                            "surface_max_mm", "internal_mean_mm", "internal_rms_mm", "internal_max_mm"}) {
     columns.push_back({name, H5Type::kDouble});
   }
+  // A zero-width column is not allowed: one zero stands in for none.
   columns.push_back({"internal_mm", H5Type::kDouble, static_cast<std::size_t>(std::max(1, internal_points))});
+  columns.push_back({"fiducial_sim_mm", H5Type::kDouble, static_cast<std::size_t>(std::max(1, fiducials))});
+  columns.push_back({"fiducial_model_mm", H5Type::kDouble, static_cast<std::size_t>(std::max(1, fiducials))});
   return columns;
 }
 
@@ -50,7 +53,8 @@ ErrorLog::Truth ErrorLog::ReadTruth(const std::string& truth_h5) {
   const io::H5Reader file(truth_h5);
   Truth truth;
   truth.path = truth_h5;
-  for (auto [group, points] : {std::pair{"surface_points", &truth.surface}, std::pair{"internal_points", &truth.internal}}) {
+  for (auto [group, points] : {std::pair{"surface_points", &truth.surface}, std::pair{"internal_points", &truth.internal},
+                               std::pair{"fiducials", &truth.fiducials}}) {
     const std::string prefix = std::string("/") + group;
     points->reference_S = file.ReadMatrix(prefix + "/X_S_m").transpose();
     points->count = static_cast<int>(points->reference_S.cols());
@@ -66,7 +70,8 @@ ErrorLog::Truth ErrorLog::ReadTruth(const std::string& truth_h5) {
   truth.surface_visible = file.Read<std::uint8_t>("/surface_points/visible_left");
   const size_t rows = size_t(truth.frames) * truth.surface.count;
   if (truth.surface_uv.size() != 2 * rows || truth.surface_visible.size() != rows ||
-      truth.internal.xyz_C.size() != 3 * size_t(truth.frames) * truth.internal.count) {
+      truth.internal.xyz_C.size() != 3 * size_t(truth.frames) * truth.internal.count ||
+      truth.fiducials.xyz_C.size() != 3 * size_t(truth.frames) * truth.fiducials.count) {
     throw Error("the surface and internal points' datasets cover different frames", truth_h5,
                 "use the truth file `dynaguide phantom` wrote with the scene");
   }
@@ -74,12 +79,20 @@ ErrorLog::Truth ErrorLog::ReadTruth(const std::string& truth_h5) {
 }
 
 ErrorLog::ErrorLog(io::RunLog& log, const std::string& truth_h5, const sim::TetMesh& mesh,
-                   const io::CameraCalibration& left)
+                   const io::CameraCalibration& left, stages::FiducialMotion scan)
     : truth_(ReadTruth(truth_h5)),
-      table_(log.AddTable("/errors", ErrorColumns(truth_.internal.count))),
+      table_(log.AddTable("/errors", ErrorColumns(truth_.internal.count, truth_.fiducials.count))),
       left_(left),
+      scan_(std::move(scan)),
       surface_embedding_(mesh, truth_.surface.reference_S),
-      internal_embedding_(mesh, truth_.internal.reference_S) {}
+      internal_embedding_(mesh, truth_.internal.reference_S),
+      fiducial_embedding_(mesh, truth_.fiducials.reference_S) {
+  if (scan_.num_phases() > 0 && scan_.num_fiducials() != truth_.fiducials.count) {
+    throw Error("the scan has " + std::to_string(scan_.num_fiducials()) + " fiducials, the truth " +
+                    std::to_string(truth_.fiducials.count),
+                truth_h5, "use the truth recorded with the scene's scan");
+  }
+}
 
 void ErrorLog::Consume(const FramePacket& packet) {
   if (!packet.simulation || !packet.registration) return;
@@ -107,10 +120,27 @@ void ErrorLog::Consume(const FramePacket& packet) {
   std::vector<double> internal_mm = stages::overlay::InternalErrorMm(
       internal_C, Eigen::Map<const Eigen::Matrix3Xd>(&truth_.internal.xyz_C[3 * frame * I], 3, I));
   const Moments internal = MomentsOf(internal_mm);
-  if (internal_mm.empty()) internal_mm.push_back(0);  // a zero-width column is not allowed: one zero stands in
+
+  const int F = truth_.fiducials.count;
+  const Eigen::Map<const Eigen::Matrix3Xd> true_fiducials_C(&truth_.fiducials.xyz_C[3 * frame * F], 3, F);
+  std::vector<double> fiducial_sim_mm =
+      stages::overlay::InternalErrorMm(T_C_S * fiducial_embedding_.Rebuild(nodes_S), true_fiducials_C);
+  std::vector<double> fiducial_model_mm(F, 0.0);
+  if (scan_.num_phases() > 0) {
+    const double phase = (packet.t_s + packet.registration->phase_shift_s) / packet.registration->period_s;
+    for (int i = 0; i < F; ++i) {
+      Eigen::Vector3d model_S;
+      stages::FiducialAtPhase(scan_, i, phase, model_S.data());
+      fiducial_model_mm[i] = 1e3 * (T_C_S * model_S - true_fiducials_C.col(i)).norm();
+    }
+  }
+  for (std::vector<double>* values : {&internal_mm, &fiducial_sim_mm, &fiducial_model_mm}) {
+    if (values->empty()) values->push_back(0);  // a zero-width column is not allowed: one zero stands in
+  }
 
   table_.AppendRow({packet.index, packet.t_s, static_cast<std::int32_t>(surface.points.size()), px.mean, px.rms,
-                    px.max, mm.mean, mm.rms, mm.max, internal.mean, internal.rms, internal.max, internal_mm});
+                    px.max, mm.mean, mm.rms, mm.max, internal.mean, internal.rms, internal.max, internal_mm,
+                    fiducial_sim_mm, fiducial_model_mm});
 }
 
 }  // namespace dg::pipeline

@@ -12,6 +12,7 @@
 #include "pipeline/frame_packet.h"
 #include "sim/embedding.h"
 #include "sim/tet_mesh.h"
+#include "stages/register/fiducial_motion.h"
 
 namespace dg::pipeline {
 
@@ -26,15 +27,22 @@ namespace dg::pipeline {
 //            are (px), and in mm at their depth: surface_points, then
 //            surface_{mean,rms,max}_{px,mm};
 //   internal: the internal points' 3D distance to the truth (mm), per point
-//            (internal_mm, one column per point) and internal_{mean,rms,max}_mm.
+//            (internal_mm, one column per point) and internal_{mean,rms,max}_mm;
+//   fiducials (paper Table 2): per fiducial, the 3D distance to the truth of
+//            the simulation's (embedded) fiducial, fiducial_sim_mm, and of
+//            the scan's own motion model (its per-phase positions
+//            interpolated linearly and cyclically at the registered phase),
+//            fiducial_model_mm.
 // Each row also has frame and t_s. Means and RMS are over the frame's points:
 // a run's figures weigh frames by their point counts (sum = mean * count).
 class ErrorLog {
  public:
-  // truth_h5: `dynaguide phantom`'s truth.h5. left: the left camera (original pixels).
-  // @throws dg::Error for a truth file without the points' datasets.
-  ErrorLog(io::RunLog& log, const std::string& truth_h5, const sim::TetMesh& mesh,
-           const io::CameraCalibration& left);
+  // truth_h5: `dynaguide phantom`'s truth.h5. left: the left camera
+  // (original pixels). scan: the scan's fiducials per phase (empty without a scan).
+  // @throws dg::Error for a truth file without the points' datasets, or a
+  // scan whose fiducials are not the truth's.
+  ErrorLog(io::RunLog& log, const std::string& truth_h5, const sim::TetMesh& mesh, const io::CameraCalibration& left,
+           stages::FiducialMotion scan);
 
   // A frame with a simulation and a registration gets a row; others none.
   // @throws dg::Error for a frame beyond the truth's.
@@ -49,7 +57,7 @@ class ErrorLog {
   struct Truth {
     std::string path;
     int frames = 0;
-    PointTruth surface, internal;
+    PointTruth surface, internal, fiducials;
     std::vector<double> surface_uv;             // [frame][point][uv], left image
     std::vector<std::uint8_t> surface_visible;  // [frame][point], left image
   };
@@ -58,7 +66,8 @@ class ErrorLog {
   Truth truth_;
   io::H5Table& table_;
   io::CameraCalibration left_;
-  sim::Embedding surface_embedding_, internal_embedding_;
+  stages::FiducialMotion scan_;
+  sim::Embedding surface_embedding_, internal_embedding_, fiducial_embedding_;
 };
 
 }  // namespace dg::pipeline

@@ -14,6 +14,7 @@
 #include "pipeline/overlay_log.h"
 #include "pipeline/run_log_sink.h"
 #include "pipeline/simulation_log.h"
+#include "stages/register/fiducial_motion.h"
 #include "sim/error.h"
 #include "sim/log.h"
 #include "tools/machine_info.h"
@@ -70,7 +71,9 @@ RunOutcome RunScene(const RunOptions& options) {
   consumers.push_back([&](const pipeline::FramePacket& packet) { simulation_log.Consume(packet); });
   std::optional<pipeline::ErrorLog> error_log;
   if (built.simulation && !scene.truth.empty()) {
-    error_log.emplace(log, scene.truth, built.simulation->mesh, built.calibration.left);
+    error_log.emplace(log, scene.truth, built.simulation->mesh, built.calibration.left,
+                      scene.preoperative ? stages::ReadFiducialMotion(scene.preoperative->motion)
+                                         : stages::FiducialMotion{});
     consumers.push_back([&](const pipeline::FramePacket& packet) { error_log->Consume(packet); });
   }
   std::optional<pipeline::OverlayLog> overlay_log;
