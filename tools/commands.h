@@ -11,6 +11,7 @@ namespace dg::tools {
 void AddSimCommand(CLI::App& app);
 void AddBenchCommand(CLI::App& app);
 void AddCalibrateCommand(CLI::App& app);
+void AddEvalCommand(CLI::App& app);
 void AddMeshCommand(CLI::App& app);
 void AddOverlayCommand(CLI::App& app);
 void AddPhantomCommand(CLI::App& app);

@@ -13,6 +13,7 @@ int main(int argc, char** argv) {
   dg::tools::AddSimCommand(app);
   dg::tools::AddBenchCommand(app);
   dg::tools::AddCalibrateCommand(app);
+  dg::tools::AddEvalCommand(app);
   dg::tools::AddMeshCommand(app);
   dg::tools::AddOverlayCommand(app);
   dg::tools::AddPhantomCommand(app);

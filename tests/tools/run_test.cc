@@ -8,12 +8,12 @@
 #include <vector>
 
 #include <catch2/catch.hpp>
-#include <hdf5.h>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/videoio.hpp>
 
 #include "sim/error.h"
+#include "tests/support/h5_plain.h"
 #include "tests/support/tiny_phantom.h"
 #include "tools/report/saved_run.h"
 #include "tools/report/timing_plot.h"
@@ -24,66 +24,7 @@ namespace {
 
 namespace fs = std::filesystem;
 using dg::testing::TinyPhantomDir;
-
-// A dataset's length, an integer or a string attribute, through the plain C API.
-hsize_t Rows(hid_t file, const char* dataset) {
-  const hid_t set = H5Dopen2(file, dataset, H5P_DEFAULT);
-  REQUIRE(set >= 0);
-  const hid_t space = H5Dget_space(set);
-  hsize_t dims[2] = {0, 0};
-  H5Sget_simple_extent_dims(space, dims, nullptr);
-  H5Sclose(space);
-  H5Dclose(set);
-  return dims[0];
-}
-
-long long IntAttribute(hid_t file, const char* object, const char* name) {
-  long long value = -1;
-  const hid_t attribute = H5Aopen_by_name(file, object, name, H5P_DEFAULT, H5P_DEFAULT);
-  REQUIRE(attribute >= 0);
-  REQUIRE(H5Aread(attribute, H5T_NATIVE_LLONG, &value) >= 0);
-  H5Aclose(attribute);
-  return value;
-}
-
-// A variable-length UTF-8 string, as h5py reads one.
-template <typename Read>
-std::string VariableString(Read&& read) {
-  const hid_t type = H5Tcopy(H5T_C_S1);
-  H5Tset_size(type, H5T_VARIABLE);
-  H5Tset_cset(type, H5T_CSET_UTF8);
-  char* text = nullptr;
-  REQUIRE(read(type, &text) >= 0);
-  std::string value = text;
-  H5free_memory(text);
-  H5Tclose(type);
-  return value;
-}
-
-std::string StringAttribute(hid_t file, const char* object, const char* name) {
-  const hid_t attribute = H5Aopen_by_name(file, object, name, H5P_DEFAULT, H5P_DEFAULT);
-  REQUIRE(attribute >= 0);
-  std::string value = VariableString([&](hid_t type, char** text) { return H5Aread(attribute, type, text); });
-  H5Aclose(attribute);
-  return value;
-}
-
-std::string StringDataset(hid_t file, const char* name) {
-  const hid_t set = H5Dopen2(file, name, H5P_DEFAULT);
-  REQUIRE(set >= 0);
-  std::string value = VariableString(
-      [&](hid_t type, char** text) { return H5Dread(set, type, H5S_ALL, H5S_ALL, H5P_DEFAULT, text); });
-  H5Dclose(set);
-  return value;
-}
-
-std::vector<double> Doubles(hid_t file, const char* dataset) {
-  std::vector<double> values(Rows(file, dataset));
-  const hid_t set = H5Dopen2(file, dataset, H5P_DEFAULT);
-  REQUIRE(H5Dread(set, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, values.data()) >= 0);
-  H5Dclose(set);
-  return values;
-}
+using namespace dg::testing::h5_plain;
 
 std::string ReadText(const std::string& path) {
   std::ifstream in(path);

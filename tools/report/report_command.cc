@@ -5,6 +5,7 @@
 #include <CLI/CLI.hpp>
 
 #include "tools/commands.h"
+#include "tools/eval/protocol.h"
 #include "tools/report/saved_run.h"
 #include "tools/report/timing_plot.h"
 
@@ -14,9 +15,17 @@ namespace {
 struct ReportArguments {
   std::string log_path;
   std::string plot_path;  // default: beside the log
+  double cycles = 3;      // a directory's evaluation window
 };
 
 void RunReportCommand(const ReportArguments& args) {
+  if (std::filesystem::is_directory(args.log_path)) {
+    // A directory of evaluation runs (`dynaguide eval protocol`, or its --emit-jobs run elsewhere): the tables.
+    const ProtocolResult result = ReadProtocolLogs(args.log_path, args.cycles);
+    std::fputs(WriteProtocolReport(result, args.log_path).c_str(), stdout);
+    std::printf("\nreport, tables and plots in %s\n", args.log_path.c_str());
+    return;
+  }
   const SavedRun run = ReadSavedRun(args.log_path);
   std::printf("dynaguide report: %s (%s policy, %d threads)\n%s", run.path.c_str(), run.policy.c_str(), run.threads,
               run.statistics.Text().c_str());
@@ -32,8 +41,12 @@ void RunReportCommand(const ReportArguments& args) {
 
 void AddReportCommand(CLI::App& app) {
   auto args = std::make_shared<ReportArguments>();
-  CLI::App* command = app.add_subcommand("report", "Summarise a saved run log and plot its stage timings");
-  command->add_option("log", args->log_path, "run.h5 written by dynaguide run")->required();
+  CLI::App* command = app.add_subcommand(
+      "report", "Summarise a saved run log and plot its stage timings, or tabulate a directory of evaluation runs");
+  command->add_option("log", args->log_path, "run.h5 written by dynaguide run, or a directory of them (eval)")
+      ->required();
+  command->add_option("--cycles", args->cycles, "A directory's evaluation window, in cardiac cycles")
+      ->capture_default_str();
   command->add_option("--plot", args->plot_path, "Timing plot PNG (default: RUN_timings.png beside the log)");
   command->callback([args] { RunReportCommand(*args); });
 }

@@ -24,19 +24,24 @@ fs::path CacheDirectory() {
 
 }  // namespace
 
-std::string DefaultScenePath(bool progress) {
+std::string DefaultScenePath(bool progress) { return CachedPhantomScenePath("default", 1, progress); }
+
+std::string CachedPhantomScenePath(const std::string& preset, std::uint64_t seed, bool progress) {
   // The generator's version is part of the name: a newer phantom is generated anew.
-  const fs::path scene_dir = CacheDirectory() / ("phantom-default-" DG_VERSION);
+  const fs::path scene_dir =
+      CacheDirectory() / ("phantom-" + preset + "-seed" + std::to_string(seed) + "-" DG_VERSION);
   const fs::path done_mark = scene_dir / ".complete";
   if (fs::exists(done_mark)) return (scene_dir / "scene.yaml").string();
 
-  std::fprintf(stderr, "dynaguide: generating the default phantom scene into %s (once; about half a minute)\n",
-               scene_dir.string().c_str());
+  std::fprintf(stderr, "dynaguide: generating the %s phantom scene (seed %llu) into %s (once; about half a minute)\n",
+               preset.c_str(), static_cast<unsigned long long>(seed), scene_dir.string().c_str());
   std::error_code error;
   fs::remove_all(scene_dir, error);
   const fs::path partial = scene_dir.string() + ".partial";
   fs::remove_all(partial, error);
-  phantom::GeneratePhantom(phantom::PresetSpec("default"), partial.string(), progress);
+  phantom::PhantomSpec spec = phantom::PresetSpec(preset);
+  spec.seed = seed;
+  phantom::GeneratePhantom(spec, partial.string(), progress);
   fs::rename(partial, scene_dir, error);
   if (error) {
     throw Error("cannot move the generated scene into place: " + error.message(), scene_dir.string(),

@@ -1,5 +1,6 @@
 #pragma once
 
+#include <cstdint>
 #include <string>
 
 namespace dg::tools {
@@ -11,5 +12,10 @@ namespace dg::tools {
 // its directory is complete.
 // @returns the scene file's path. @throws dg::Error when the cache cannot be written.
 std::string DefaultScenePath(bool progress);
+
+// A phantom of a preset and seed, cached the same way (the default scene is
+// the default preset's seed 1). @throws dg::Error as DefaultScenePath, or for
+// an unknown preset.
+std::string CachedPhantomScenePath(const std::string& preset, std::uint64_t seed, bool progress);
 
 }  // namespace dg::tools

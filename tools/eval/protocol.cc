@@ -1,0 +1,307 @@
+#include "tools/eval/protocol.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <tuple>
+
+#include <yaml-cpp/yaml.h>
+
+#include "io/h5_file.h"
+#include "io/registration_file.h"
+#include "io/scene.h"
+#include "sim/error.h"
+#include "tools/json_text.h"
+#include "tools/report/line_plot.h"
+#include "tools/run/default_scene.h"
+#include "tools/run/run_job.h"
+
+namespace dg::tools {
+namespace {
+
+namespace fs = std::filesystem;
+
+// The paper's Table 1 (mm): surface overlay in the left image, internal overlay in 3D.
+struct PaperRow {
+  double surface_avg, surface_max, surface_rms, internal_avg, internal_max, internal_rms;
+};
+const std::map<std::string, PaperRow> kPaperTable1 = {{"surface", {0.33, 0.64, 0.36, 1.05, 2.16, 1.21}},
+                                                       {"volume", {0.69, 1.40, 0.80, 0.16, 0.32, 0.18}},
+                                                       {"combined", {0.36, 0.68, 0.40, 0.83, 1.75, 0.92}}};
+// Its Table 2 (mm): the five fiducials' errors of the deformed scan and of the volume-mode simulation.
+const std::vector<double> kPaperDeformed = {0.23, 0.31, 0.20, 0.23, 0.23};
+const std::vector<double> kPaperVolume = {0.25, 0.30, 0.20, 0.23, 0.33};
+constexpr double kPaperResidualMm = 0.47;
+
+std::vector<std::string> SceneFiles(const ProtocolOptions& options) {
+  if (!options.scene.empty()) return {options.scene};
+  std::vector<std::string> scenes;
+  for (std::uint64_t seed : options.seeds) scenes.push_back(CachedPhantomScenePath("default", seed, options.progress));
+  return scenes;
+}
+
+// The truth's registration as a registration file beside the scene.
+std::string WriteTruthRegistration(const io::Scene& scene) {
+  const io::H5Reader truth(scene.truth);
+  io::Registration registration;
+  registration.T_C_S = truth.ReadMatrix("/T_C_S");
+  registration.phase_shift_s = truth.ReadScalar("/phase_shift_s");
+  registration.period_s = truth.ReadScalar("/period_s");
+  const std::string file = "eval-truth-registration.yaml";
+  io::WriteRegistrationYaml((fs::path(scene.path).parent_path() / file).string(), registration);
+  return file;
+}
+
+// The scene in one mode, beside the original (its relative paths still
+// resolve), without overlays: the errors do not depend on drawing them.
+std::string WriteModeScene(const std::string& scene_file, const std::string& mode, bool truth_registration) {
+  const io::Scene scene = io::ReadScene(scene_file);  // validates, and names what is missing
+  if (scene.truth.empty() || !scene.preoperative) {
+    throw Error("the scene has no ground truth or no preoperative scan", scene_file,
+                "evaluate a phantom scene (dynaguide phantom writes truth.h5 and scan.h5)");
+  }
+  YAML::Node root = YAML::LoadFile(scene_file);
+  root["simulation"]["mode"] = mode;
+  root.remove("overlays");
+  if (truth_registration) {
+    root.remove("registration");
+    root["registration"]["file"] = WriteTruthRegistration(scene);
+  }
+  const std::string path = (fs::path(scene_file).parent_path() / ("eval-" + mode + ".yaml")).string();
+  std::ofstream out(path);
+  out << "# " << scene_file << " in " << mode << " mode, for `dynaguide eval protocol`\n" << YAML::Dump(root) << "\n";
+  if (!out) throw Error("cannot write the mode's scene", path, "make the scene's directory writable");
+  return path;
+}
+
+std::string SceneName(const std::string& scene_file) {
+  const io::Scene scene = io::ReadScene(scene_file);
+  return scene.name.empty() ? fs::path(scene_file).parent_path().filename().string() : scene.name;
+}
+
+std::string Fixed(double value, int digits = 2) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.*f", digits, value);
+  return text;
+}
+
+double Median(std::vector<double> values) {
+  if (values.empty()) return 0;
+  std::sort(values.begin(), values.end());
+  const size_t n = values.size();
+  return n % 2 ? values[n / 2] : 0.5 * (values[n / 2 - 1] + values[n / 2]);
+}
+
+std::vector<const RunErrors*> RunsOfMode(const ProtocolResult& result, const std::string& mode) {
+  std::vector<const RunErrors*> runs;
+  for (const RunErrors& run : result.runs) {
+    if (run.mode == mode) runs.push_back(&run);
+  }
+  return runs;
+}
+
+void WritePlots(const ProtocolResult& result, const std::string& out_dir) {
+  // The first scene's runs: one time axis.
+  const std::string& scene = result.scenes.front();
+  std::vector<PlotSeries> surface, internal;
+  for (const std::string& mode : ProtocolModes()) {
+    for (const RunErrors& run : result.runs) {
+      if (run.mode != mode || run.scene_name != scene) continue;
+      PlotSeries s{mode, {}}, i{mode, {}};
+      const size_t rows = std::min(run.frame.size(), static_cast<size_t>(result.window_frames));
+      for (size_t r = 0; r < rows; ++r) {
+        s.points.push_back({run.t_s[r], run.surface_mean_mm[r]});
+        double sum = 0;
+        for (int p = 0; p < run.internal_points; ++p) sum += run.internal_mm[r * run.internal_points + p];
+        i.points.push_back({run.t_s[r], sum / std::max(1, run.internal_points)});
+      }
+      surface.push_back(std::move(s));
+      internal.push_back(std::move(i));
+    }
+  }
+  PlotOptions options;
+  options.x_label = "video time (s), " + scene;
+  options.y_label = "surface overlay error, left image (mm, mean over the visible points)";
+  options.references = {{"paper, combined avg", kPaperTable1.at("combined").surface_avg}};
+  WriteLinePlot(surface, options, out_dir + "/fig2_surface.png");
+  options.y_label = "internal overlay error, 3D (mm, mean over the internal points)";
+  options.references = {{"paper, combined avg", kPaperTable1.at("combined").internal_avg}};
+  WriteLinePlot(internal, options, out_dir + "/fig2_internal.png");
+}
+
+}  // namespace
+
+const std::vector<std::string>& ProtocolModes() {
+  static const std::vector<std::string> modes = {"surface", "volume", "combined"};
+  return modes;
+}
+
+ProtocolResult RunProtocol(const ProtocolOptions& options) {
+  if (!(options.cycles > 0)) throw Error("the window must be positive", "--cycles", "evaluate over 3 cycles, as the paper");
+  const std::string runs_dir = options.out_dir + "/runs";
+  std::ofstream jobs;
+  if (!options.emit_jobs.empty()) {
+    jobs.open(options.emit_jobs);
+    if (!jobs) throw Error("cannot write the job list", options.emit_jobs, "check the directory exists");
+  }
+  for (const std::string& scene_file : SceneFiles(options)) {
+    const std::string name = SceneName(scene_file);
+    for (const std::string& mode : ProtocolModes()) {
+      RunOptions run;
+      run.scene = WriteModeScene(scene_file, mode, options.truth_registration);
+      run.out_dir = runs_dir + "/" + name + "/" + mode;
+      run.threads = options.threads;
+      run.video = false;
+      run.progress = options.progress;
+      if (jobs.is_open()) {
+        jobs << "dynaguide run " << run.scene << " --out " << run.out_dir << " --no-video"
+             << (options.threads > 0 ? " --threads " + std::to_string(options.threads) : "") << "\n";
+        continue;
+      }
+      if (options.progress) std::fprintf(stderr, "eval protocol: %s, %s mode\n", name.c_str(), mode.c_str());
+      RunScene(run);
+    }
+  }
+  if (jobs.is_open()) return {};
+  return ReadProtocolLogs(runs_dir, options.cycles);
+}
+
+ProtocolResult ReadProtocolLogs(const std::string& dir, double cycles) {
+  ProtocolResult result;
+  std::error_code error;
+  for (fs::recursive_directory_iterator it(dir, error), end; !error && it != end; it.increment(error)) {
+    if (it->path().filename() == "run.h5") result.runs.push_back(ReadRunErrors(it->path().string()));
+  }
+  if (result.runs.empty()) {
+    throw Error("no run log found", dir, "run `dynaguide eval protocol`, or the jobs of --emit-jobs, into it first");
+  }
+  // Scenes in name order, modes in the protocol's.
+  std::sort(result.runs.begin(), result.runs.end(), [](const RunErrors& a, const RunErrors& b) {
+    const auto rank = [](const std::string& mode) {
+      return std::find(ProtocolModes().begin(), ProtocolModes().end(), mode) - ProtocolModes().begin();
+    };
+    return std::pair(a.scene_name, rank(a.mode)) < std::pair(b.scene_name, rank(b.mode));
+  });
+  // The window: `cycles` periods from each simulation's start, as far as every run reaches.
+  const RunErrors& first = result.runs.front();
+  result.window_frames = static_cast<int>(std::lround(cycles * first.period_s * first.fps));
+  for (const RunErrors& run : result.runs) {
+    result.window_frames = std::min(result.window_frames, static_cast<int>(run.frame.size()));
+    if (result.scenes.empty() || result.scenes.back() != run.scene_name) result.scenes.push_back(run.scene_name);
+  }
+  result.window_cycles = result.window_frames / (first.period_s * first.fps);
+  for (const std::string& mode : ProtocolModes()) {
+    result.per_mode.push_back(Figures(RunsOfMode(result, mode), result.window_frames));
+  }
+  return result;
+}
+
+std::string WriteProtocolReport(const ProtocolResult& result, const std::string& out_dir) {
+  fs::create_directories(out_dir);
+  std::string md = "# dynaguide eval protocol\n\n";
+  md += "Scenes: " + std::to_string(result.scenes.size()) + " (";
+  for (size_t k = 0; k < result.scenes.size(); ++k) md += (k ? ", " : "") + result.scenes[k];
+  md += "). Window: " + std::to_string(result.window_frames) + " frames (" + Fixed(result.window_cycles) +
+        " cardiac cycles) from the first simulated frame, " +
+        (result.runs.front().registration_given ? "with the registration the scene gives (e.g. --truth-registration)"
+                                                : "registered from the video") +
+        ".\n\n";
+
+  md += "## Table 1: overlay errors (mm), this run against the paper\n\n";
+  md += "| mode | surface avg | max | RMS | internal avg | max | RMS | real-time factor |\n";
+  md += "|---|---:|---:|---:|---:|---:|---:|---:|\n";
+  std::string csv1 = "mode,surface_avg_mm,surface_max_mm,surface_rms_mm,internal_avg_mm,internal_max_mm,internal_rms_mm,"
+                     "realtime_factor,frames\n";
+  for (size_t m = 0; m < ProtocolModes().size(); ++m) {
+    const std::string& mode = ProtocolModes()[m];
+    const ErrorFigures& f = result.per_mode[m];
+    const PaperRow& paper = kPaperTable1.at(mode);
+    std::vector<double> factors;
+    for (const RunErrors* run : RunsOfMode(result, mode)) factors.push_back(run->realtime_factor);
+    md += "| " + mode + " | " + Fixed(f.surface_avg_mm) + " (" + Fixed(paper.surface_avg) + ") | " +
+          Fixed(f.surface_max_mm) + " (" + Fixed(paper.surface_max) + ") | " + Fixed(f.surface_rms_mm) + " (" +
+          Fixed(paper.surface_rms) + ") | " + Fixed(f.internal_avg_mm) + " (" + Fixed(paper.internal_avg) + ") | " +
+          Fixed(f.internal_max_mm) + " (" + Fixed(paper.internal_max) + ") | " + Fixed(f.internal_rms_mm) + " (" +
+          Fixed(paper.internal_rms) + ") | " + Fixed(Median(factors)) + " |\n";
+    csv1 += mode + "," + Fixed(f.surface_avg_mm, 6) + "," + Fixed(f.surface_max_mm, 6) + "," +
+            Fixed(f.surface_rms_mm, 6) + "," + Fixed(f.internal_avg_mm, 6) + "," + Fixed(f.internal_max_mm, 6) + "," +
+            Fixed(f.internal_rms_mm, 6) + "," + Fixed(Median(factors), 4) + "," + std::to_string(f.frames) + "\n";
+  }
+  md += "\nIn parentheses the paper's (CABG phantom, da Vinci video). Surface: the phantom's surface points the left "
+        "camera sees, where the overlay draws them against where they are, in mm at their depth; internal: the "
+        "embedded internal points against their true positions in 3D.\n\n";
+
+  md += "## Table 2: fiducial errors (mm), averaged over the window\n\n| | ";
+  const ErrorFigures& volume = result.per_mode[1];
+  const size_t F = volume.fiducial_sim_avg_mm.size();
+  std::string csv2 = "fiducial,deformed_scan_mm,volume_mm\n";
+  for (size_t i = 0; i < F; ++i) md += "fiducial " + std::to_string(i + 1) + " | ";
+  md += "average |\n|---|";
+  for (size_t i = 0; i <= F; ++i) md += "---:|";
+  md += "\n";
+  for (const auto& [label, values, paper] :
+       {std::tuple{"deformed scan", &volume.fiducial_model_avg_mm, &kPaperDeformed},
+        std::tuple{"volume", &volume.fiducial_sim_avg_mm, &kPaperVolume}}) {
+    md += std::string("| ") + label + " | ";
+    double sum = 0;
+    for (size_t i = 0; i < F; ++i) {
+      md += Fixed((*values)[i]) + (i < paper->size() ? " (" + Fixed((*paper)[i]) + ")" : "") + " | ";
+      sum += (*values)[i];
+    }
+    double paper_sum = 0;
+    for (double v : *paper) paper_sum += v;
+    md += Fixed(F ? sum / F : 0) + " (" + Fixed(paper_sum / paper->size()) + ") |\n";
+  }
+  for (size_t i = 0; i < F; ++i) {
+    csv2 += std::to_string(i + 1) + "," + Fixed(volume.fiducial_model_avg_mm[i], 6) + "," +
+            Fixed(volume.fiducial_sim_avg_mm[i], 6) + "\n";
+  }
+  md += "\nDeformed scan: the scan's per-phase fiducial positions interpolated linearly in time at the registered "
+        "phase; volume: the fiducials embedded in the volume-mode simulation. Both through the run's registration.\n\n";
+
+  md += "## Registration residuals (mean, mm at the fiducials' depth)\n\n| scene | mode | left | right |\n"
+        "|---|---|---:|---:|\n";
+  for (const RunErrors& run : result.runs) {
+    md += "| " + run.scene_name + " | " + run.mode + " | " + Fixed(run.residual_mm_left, 3) + " | " +
+          Fixed(run.residual_mm_right, 3) + " |\n";
+  }
+  md += "\nThe paper: " + Fixed(kPaperResidualMm) + " mm left and right.\n\n";
+  md += "Fig. 2: fig2_surface.png and fig2_internal.png (error against time per mode).\n";
+
+  WritePlots(result, out_dir);
+  for (const auto& [file, text] : {std::pair{"/report.md", &md}, std::pair{"/table1.csv", &csv1},
+                                   std::pair{"/table2.csv", &csv2}}) {
+    std::ofstream out(out_dir + file);
+    out << *text;
+    if (!out) throw Error("cannot write the report", out_dir + file, "check the directory is writable");
+  }
+  return md;
+}
+
+void WriteProtocolJson(const ProtocolResult& result, const std::string& path) {
+  std::string json = "{\n  \"window_frames\": " + std::to_string(result.window_frames) +
+                     ", \"window_cycles\": " + Fixed(result.window_cycles, 4) + ",\n  \"modes\": [\n";
+  for (size_t m = 0; m < ProtocolModes().size(); ++m) {
+    const ErrorFigures& f = result.per_mode[m];
+    std::vector<double> factors;
+    for (const RunErrors* run : RunsOfMode(result, ProtocolModes()[m])) factors.push_back(run->realtime_factor);
+    char line[512];
+    std::snprintf(line, sizeof line,
+                  "    {\"mode\": %s, \"surface_avg_mm\": %.6g, \"surface_max_mm\": %.6g, \"surface_rms_mm\": %.6g, "
+                  "\"internal_avg_mm\": %.6g, \"internal_max_mm\": %.6g, \"internal_rms_mm\": %.6g, "
+                  "\"realtime_factor\": %.6g, \"frames\": %d}%s\n",
+                  JsonQuoted(ProtocolModes()[m]).c_str(), f.surface_avg_mm, f.surface_max_mm, f.surface_rms_mm,
+                  f.internal_avg_mm, f.internal_max_mm, f.internal_rms_mm, Median(factors), f.frames,
+                  m + 1 < ProtocolModes().size() ? "," : "");
+    json += line;
+  }
+  json += "  ]\n}\n";
+  std::ofstream out(path);
+  out << json;
+  if (!out) throw Error("cannot write the JSON", path, "check the directory exists and is writable");
+}
+
+}  // namespace dg::tools

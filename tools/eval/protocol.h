@@ -1,0 +1,61 @@
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "tools/eval/run_errors.h"
+
+namespace dg::tools {
+
+// `dynaguide eval protocol`: the paper's validation (section 2.8, Tables 1
+// and 2, Fig. 2) on phantoms with ground truth. Each scene is run once per
+// constraint mode (surface, volume, combined), registered from its own video;
+// the errors over `cycles` cardiac cycles from the simulation's start are
+// read back from the run logs.
+struct ProtocolOptions {
+  std::string scene;                  // empty: the default phantom, one scene per seed
+  std::vector<std::uint64_t> seeds{1};
+  std::string out_dir = "out/eval";   // runs/<scene>/<mode>/run.h5, report.md, CSV, PNG
+  int threads = 0;                    // 0: all cores
+  double cycles = 3;                  // the evaluation window
+  std::string emit_jobs;              // write one `dynaguide run` line per run here instead of running
+  // Give the runs the truth's registration instead of registering from the
+  // video: the modes' errors without the registration's (an error budget).
+  bool truth_registration = false;
+  bool progress = true;
+};
+
+// The modes a protocol runs, in its tables' order.
+const std::vector<std::string>& ProtocolModes();
+
+struct ProtocolResult {
+  std::vector<std::string> scenes;      // names, in run order
+  std::vector<RunErrors> runs;          // every run read back
+  std::vector<ErrorFigures> per_mode;   // pooled over scenes, in ProtocolModes() order
+  int window_frames = 0;                // frames of each run's window
+  double window_cycles = 0;             // the cycles they span (short of `cycles` when a video is)
+};
+
+// Runs (or, with emit_jobs, lists) every scene in every mode, then reads the
+// logs back. @throws dg::Error for a scene without truth or preoperative
+// data, or a run that fails.
+ProtocolResult RunProtocol(const ProtocolOptions& options);
+
+// The tables from run logs already on disk: every run.h5 under `dir`
+// (`dynaguide report DIR`, and after jobs run elsewhere).
+// @throws dg::Error when no run log with errors is found.
+ProtocolResult ReadProtocolLogs(const std::string& dir, double cycles);
+
+// Writes report.md (Tables 1 and 2 beside the paper's, registration
+// residuals beside its 0.47 mm), table1.csv, table2.csv, fig2_surface.png and
+// fig2_internal.png (error against time per mode) into out_dir.
+// @returns the report's text. @throws dg::Error when a file cannot be written.
+std::string WriteProtocolReport(const ProtocolResult& result, const std::string& out_dir);
+
+// The JSON users script against (issue 9): per mode surface_avg_mm,
+// surface_max_mm, surface_rms_mm, internal_avg_mm, internal_max_mm,
+// internal_rms_mm, realtime_factor (the runs' median).
+void WriteProtocolJson(const ProtocolResult& result, const std::string& path);
+
+}  // namespace dg::tools

@@ -1,0 +1,123 @@
+#include "tools/eval/run_errors.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <yaml-cpp/yaml.h>
+
+#include "io/h5_file.h"
+#include "sim/error.h"
+
+namespace dg::tools {
+namespace {
+
+template <typename T>
+std::vector<T> Column(const io::H5Reader& file, const std::string& name, int* width = nullptr) {
+  io::H5Shape shape;
+  std::vector<T> values = file.Read<T>("/errors/" + name, &shape);
+  if (width) *width = shape.size() == 2 ? static_cast<int>(shape[1]) : 1;
+  return values;
+}
+
+}  // namespace
+
+RunErrors ReadRunErrors(const std::string& run_h5) {
+  const io::H5Reader file(run_h5);
+  if (!file.Has("/errors/frame") || !file.Has("/registration")) {
+    throw Error("the run log has no /errors or /registration", run_h5,
+                "evaluate runs of a scene with ground truth (truth:) and a simulation (simulation:)");
+  }
+  RunErrors run;
+  run.path = run_h5;
+  const YAML::Node scene = YAML::Load(file.ReadString("/scene"));
+  run.scene_name = scene["name"] ? scene["name"].as<std::string>() : "";
+  run.mode = scene["simulation"]["mode"] ? scene["simulation"]["mode"].as<std::string>() : "combined";
+  run.fps = file.ReadAttribute<double>("/", "fps");
+  run.complete = file.ReadAttribute<std::int64_t>("/", "complete") == 1;
+  const double wall_s = file.HasAttribute("/", "wall_s") ? file.ReadAttribute<double>("/", "wall_s") : 0;
+  const auto frames = file.HasAttribute("/", "frames") ? file.ReadAttribute<std::int64_t>("/", "frames") : 0;
+  run.realtime_factor = wall_s > 0 ? frames / run.fps / wall_s : 0;
+  run.period_s = file.ReadScalar("/registration/period_s");
+  run.residual_mm_left = file.ReadScalar("/registration/left/mean_mm");
+  run.residual_mm_right = file.ReadScalar("/registration/right/mean_mm");
+  run.registration_given = file.ReadAttribute<std::int64_t>("/registration", "frame") < 0;
+
+  run.frame = Column<std::int64_t>(file, "frame");
+  run.t_s = Column<double>(file, "t_s");
+  run.surface_points = Column<std::int32_t>(file, "surface_points");
+  run.surface_mean_mm = Column<double>(file, "surface_mean_mm");
+  run.surface_rms_mm = Column<double>(file, "surface_rms_mm");
+  run.surface_max_mm = Column<double>(file, "surface_max_mm");
+  run.internal_mm = Column<double>(file, "internal_mm", &run.internal_points);
+  run.fiducial_sim_mm = Column<double>(file, "fiducial_sim_mm", &run.fiducials);
+  run.fiducial_model_mm = Column<double>(file, "fiducial_model_mm");
+  // A run killed inside a flush may leave columns of unequal length: the rows all columns have.
+  const size_t rows = std::min({run.frame.size(), run.t_s.size(), run.surface_points.size(),
+                                run.surface_mean_mm.size(), run.surface_rms_mm.size(), run.surface_max_mm.size(),
+                                run.internal_mm.size() / std::max(1, run.internal_points),
+                                run.fiducial_sim_mm.size() / std::max(1, run.fiducials),
+                                run.fiducial_model_mm.size() / std::max(1, run.fiducials)});
+  run.frame.resize(rows);
+  run.t_s.resize(rows);
+  run.surface_points.resize(rows);
+  run.surface_mean_mm.resize(rows);
+  run.surface_rms_mm.resize(rows);
+  run.surface_max_mm.resize(rows);
+  run.internal_mm.resize(rows * run.internal_points);
+  run.fiducial_sim_mm.resize(rows * run.fiducials);
+  run.fiducial_model_mm.resize(rows * run.fiducials);
+  return run;
+}
+
+ErrorFigures Figures(const std::vector<const RunErrors*>& runs, int frames) {
+  ErrorFigures figures;
+  double surface_points = 0, surface_sum = 0, surface_sq = 0;
+  double internal_count = 0, internal_sum = 0, internal_sq = 0;
+  std::vector<double> fiducial_sim, fiducial_model;
+  double fiducial_rows = 0;
+  for (const RunErrors* run : runs) {
+    if (run == runs.front()) {
+      fiducial_sim.assign(run->fiducials, 0.0);
+      fiducial_model.assign(run->fiducials, 0.0);
+    }
+    if (run->fiducials != static_cast<int>(fiducial_sim.size())) {
+      throw Error("runs with different fiducial counts cannot be pooled", run->path, "evaluate one phantom design");
+    }
+    const size_t rows = frames < 0 ? run->frame.size() : std::min(run->frame.size(), static_cast<size_t>(frames));
+    for (size_t r = 0; r < rows; ++r) {
+      ++figures.frames;
+      const double n = run->surface_points[r];
+      surface_points += n;
+      surface_sum += n * run->surface_mean_mm[r];
+      surface_sq += n * run->surface_rms_mm[r] * run->surface_rms_mm[r];
+      figures.surface_max_mm = std::max(figures.surface_max_mm, run->surface_max_mm[r]);
+      for (int p = 0; p < run->internal_points; ++p) {
+        const double e = run->internal_mm[r * run->internal_points + p];
+        ++internal_count;
+        internal_sum += e;
+        internal_sq += e * e;
+        figures.internal_max_mm = std::max(figures.internal_max_mm, e);
+      }
+      for (int i = 0; i < run->fiducials; ++i) {
+        fiducial_sim[i] += run->fiducial_sim_mm[r * run->fiducials + i];
+        fiducial_model[i] += run->fiducial_model_mm[r * run->fiducials + i];
+      }
+      ++fiducial_rows;
+    }
+  }
+  if (surface_points > 0) {
+    figures.surface_avg_mm = surface_sum / surface_points;
+    figures.surface_rms_mm = std::sqrt(surface_sq / surface_points);
+  }
+  if (internal_count > 0) {
+    figures.internal_avg_mm = internal_sum / internal_count;
+    figures.internal_rms_mm = std::sqrt(internal_sq / internal_count);
+  }
+  for (size_t i = 0; i < fiducial_sim.size() && fiducial_rows > 0; ++i) {
+    figures.fiducial_sim_avg_mm.push_back(fiducial_sim[i] / fiducial_rows);
+    figures.fiducial_model_avg_mm.push_back(fiducial_model[i] / fiducial_rows);
+  }
+  return figures;
+}
+
+}  // namespace dg::tools

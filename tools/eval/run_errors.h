@@ -1,0 +1,46 @@
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace dg::tools {
+
+// One run log's errors against ground truth (its /errors, /registration and
+// scene), as the evaluation tables need them.
+struct RunErrors {
+  std::string path;
+  std::string scene_name, mode;  // from the scene the run log holds
+  double fps = 0, period_s = 0;
+  double realtime_factor = 0;    // seconds of video per wall second (frames / fps / wall_s)
+  bool complete = false;
+  double residual_mm_left = 0, residual_mm_right = 0;  // the registration's mean reprojection residuals
+  bool registration_given = false;  // by the scene (a file), not registered from the run's video
+  // Per simulated frame (rows of /errors).
+  std::vector<std::int64_t> frame;
+  std::vector<double> t_s;
+  std::vector<std::int32_t> surface_points;
+  std::vector<double> surface_mean_mm, surface_rms_mm, surface_max_mm;
+  int internal_points = 0, fiducials = 0;
+  std::vector<double> internal_mm;                          // [frame][point]
+  std::vector<double> fiducial_sim_mm, fiducial_model_mm;  // [frame][fiducial]
+};
+
+// @throws dg::Error naming the file when it has no /errors (a run without
+// simulation or ground truth) or no registration.
+RunErrors ReadRunErrors(const std::string& run_h5);
+
+// A run's errors over a window of frames: Table 1's figures (paper section 2.8).
+struct ErrorFigures {
+  int frames = 0;
+  double surface_avg_mm = 0, surface_max_mm = 0, surface_rms_mm = 0;
+  double internal_avg_mm = 0, internal_max_mm = 0, internal_rms_mm = 0;
+  std::vector<double> fiducial_sim_avg_mm, fiducial_model_avg_mm;  // Table 2: per fiducial
+};
+
+// Over the rows of runs[k] whose frame lies in [first, first + frames) of its
+// simulation (frames < 0: all), pooled over the runs: each surface frame
+// weighs by its point count, each internal point and fiducial once.
+ErrorFigures Figures(const std::vector<const RunErrors*>& runs, int frames);
+
+}  // namespace dg::tools
