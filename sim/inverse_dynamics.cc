@@ -146,10 +146,7 @@ void InverseSimulation<T>::NodeChunk(int chunk, const T* gathered) {
   const int begin = chunk * kNodesPerChunk;
   const int end = std::min(begin + kNodesPerChunk, model.num_nodes());
   T own[3 * kNodesPerChunk];
-  if (!gathered) {
-    for (int a = begin; a < end; ++a) GatherNodalForce(model, element_forces_.data(), a, &own[3 * (a - begin)]);
-    gathered = own;
-  }
+  gathered = ChunkNodalForces(model, element_forces_.data(), begin, end, gathered, own);
   T* __restrict u_next = motion_levels_[Slot(pending_level_ + 1)].data();
   const T* __restrict u = motion_levels_[Slot(pending_level_)].data();
   const T* __restrict u_prev = motion_levels_[Slot(pending_level_ - 1)].data();

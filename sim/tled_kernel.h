@@ -87,6 +87,17 @@ inline void GatherNodalForce(const TledModel<T>& model, const T* forces, int a, 
   f[2] = fz;
 }
 
+// The nodal forces of the chunk of nodes [begin, end), 3 per node: `gathered`
+// when the caller gathered them already (GatherNodalForces for two passes at
+// once), else gathered here into `own` (room for 3 (end - begin)).
+template <typename T>
+inline const T* ChunkNodalForces(const TledModel<T>& model, const T* forces, int begin, int end, const T* gathered,
+                                 T* own) {
+  if (gathered) return gathered;
+  for (int a = begin; a < end; ++a) GatherNodalForce(model, forces, a, &own[3 * (a - begin)]);
+  return own;
+}
+
 // GatherNodalForce of two force arrays in one walk over node a's incidences,
 // each summed in the same order as GatherNodalForce (bitwise the same sums):
 // one loop's control and offsets serve both, and the two chains overlap.

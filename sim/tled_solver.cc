@@ -246,10 +246,7 @@ void TledSolver<T>::NodeChunk(int chunk, const T* gathered) {
   const int begin = chunk * kNodesPerChunk;
   const int end = std::min(begin + kNodesPerChunk, model.num_nodes());
   T own[3 * kNodesPerChunk];
-  if (!gathered) {
-    for (int a = begin; a < end; ++a) GatherNodalForce(model, element_forces_.data(), a, &own[3 * (a - begin)]);
-    gathered = own;
-  }
+  gathered = ChunkNodalForces(model, element_forces_.data(), begin, end, gathered, own);
   double twice_kinetic = 0;
   for (int a = begin; a < end; ++a) {
     const T* f = &gathered[3 * (a - begin)];
