@@ -72,6 +72,9 @@ void AddRunCommand(CLI::App& app) {
       ->capture_default_str();
   command->add_flag("--print-graph", args->print_graph, "Print the graph's nodes and edges and exit");
   command->add_flag("--no-video", args->no_video, "Do not write the annotated video");
+  command->add_option("--snapshots", args->options.snapshots,
+                      "Frames written as PNG, the overlays composed over the left frame (e.g. 60,80)")
+      ->delimiter(',');
   command->add_flag("--quiet", args->quiet, "No progress lines");
   command->callback([args] { RunRunCommand(*args); });
 }

@@ -1,9 +1,11 @@
 #include "tools/run/run_job.h"
 
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <optional>
 
+#include <opencv2/imgcodecs.hpp>
 #include <tbb/global_control.h>
 #include <tbb/info.h>
 
@@ -87,6 +89,17 @@ RunOutcome RunScene(const RunOptions& options) {
     const cv::Size size(built.calibration.left.width, built.calibration.left.height);
     video.emplace(outcome.video_path, source.fps(), size, options.graph.policy);
     consumers.push_back([&video](const pipeline::FramePacket& packet) { video->Add(packet); });
+  }
+  if (!options.snapshots.empty()) {
+    consumers.push_back([&options](const pipeline::FramePacket& packet) {
+      if (std::find(options.snapshots.begin(), options.snapshots.end(), packet.index) == options.snapshots.end()) return;
+      char name[64];
+      std::snprintf(name, sizeof name, "composite_%05lld.png", static_cast<long long>(packet.index));
+      const std::string path = (fs::path(options.out_dir) / name).string();
+      if (!cv::imwrite(path, packet.composite.empty() ? packet.raw.left : packet.composite)) {
+        throw Error("cannot write the snapshot", path, "check the output directory is writable");
+      }
+    });
   }
   Progress progress("run", static_cast<double>(FramesInRange(options.graph, source.frame_count())), options.progress);
   std::int64_t done = 0;

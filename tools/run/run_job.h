@@ -2,6 +2,7 @@
 
 #include <cstdint>
 #include <string>
+#include <vector>
 
 #include "pipeline/run_statistics.h"
 #include "pipeline/scene_graph.h"
@@ -16,6 +17,7 @@ struct RunOptions {
   pipeline::GraphOptions graph;     // policy, frames in flight, frame range
   pipeline::FrontEndSettings front_end;
   bool video = true;     // write the annotated video
+  std::vector<std::int64_t> snapshots;  // frames written as PNG (composite_<frame>.png: the overlaid left frame)
   bool progress = true;  // progress lines on stderr
 };
 
