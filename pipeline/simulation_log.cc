@@ -10,7 +10,7 @@ SimulationLog::SimulationLog(io::RunLog& log, std::shared_ptr<const SimulationSe
   if (given) {
     io::WriteRegistrationH5(&log_.file(), "/registration", *given);
     log_.file().WriteAttribute("/registration", "frame", std::int64_t{-1});
-    registered_ = true;
+    registration_ = given;
   }
   if (!setup) return;
   const std::vector<int> ids = stages::SampledNodeIds(setup->mesh.num_nodes(), setup->options.sampled_nodes);
@@ -32,10 +32,10 @@ SimulationLog::SimulationLog(io::RunLog& log, std::shared_ptr<const SimulationSe
 }
 
 void SimulationLog::Consume(const FramePacket& packet) {
-  if (packet.registration && !registered_) {
+  if (packet.registration && !registration_) {
     io::WriteRegistrationH5(&log_.file(), "/registration", *packet.registration);
     log_.file().WriteAttribute("/registration", "frame", packet.index);
-    registered_ = true;
+    registration_ = packet.registration;
   }
   if (!sim_ || !packet.simulation) return;
   const stages::FemFrameRecord& r = packet.simulation->record;

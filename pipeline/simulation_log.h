@@ -28,14 +28,16 @@ class SimulationLog {
 
   void Consume(const FramePacket& packet);
 
-  bool registered() const { return registered_; }
+  bool registered() const { return registration_ != nullptr; }
+  // The registration the log holds (the scene's, or the register stage's); null before one.
+  const std::shared_ptr<const io::Registration>& registration() const { return registration_; }
   std::int64_t simulated_frames() const { return sim_ ? static_cast<std::int64_t>(sim_->rows()) : 0; }
 
  private:
   io::RunLog& log_;
   io::H5Table* sim_ = nullptr;
   std::size_t sampled_ = 0;
-  bool registered_ = false;
+  std::shared_ptr<const io::Registration> registration_;
 };
 
 }  // namespace dg::pipeline

@@ -12,6 +12,7 @@
 #include <opencv2/imgproc.hpp>
 #include <opencv2/videoio.hpp>
 
+#include "io/registration_file.h"
 #include "sim/error.h"
 #include "tests/support/h5_plain.h"
 #include "tests/support/tiny_phantom.h"
@@ -76,6 +77,10 @@ TEST_CASE("run: the tiny phantom end to end, and its report", "[tools][integrati
   const long long registered_at = IntAttribute(file, "/registration", "frame");
   CHECK(registered_at == 19);
   CHECK(Rows(file, "/registration/T_C_S") == 4);
+  // The same registration as a file a scene can reuse, read back through its own reader.
+  const io::Registration reused = io::ReadRegistrationYaml(outcome.registration_path);
+  const std::vector<double> T_C_S = Doubles(file, "/registration/T_C_S");
+  for (int k = 0; k < 16; ++k) CHECK(reused.T_C_S(k / 4, k % 4) == Approx(T_C_S[k]).margin(1e-12));
   const hsize_t simulated = static_cast<hsize_t>(frames - registered_at);
   CHECK(Rows(file, "/sim/frame") == simulated);
   CHECK(Rows(file, "/sim/sampled_nodes_S_m") == simulated);

@@ -43,6 +43,9 @@ void RunRunCommand(RunArguments& args) {
   }
   const RunOutcome outcome = RunScene(options);
   std::printf("dynaguide run: %s\n%s", outcome.log_path.c_str(), outcome.statistics.Text().c_str());
+  if (!outcome.registration_path.empty()) {
+    std::printf("registration: %s (a scene reuses it as registration: {file: ...})\n", outcome.registration_path.c_str());
+  }
   if (!outcome.video_path.empty()) {
     std::printf("annotated video: %s (%lld frames dropped by the encoder)\n", outcome.video_path.c_str(),
                 static_cast<long long>(outcome.video_frames_dropped));

@@ -9,6 +9,7 @@
 #include <tbb/global_control.h>
 #include <tbb/info.h>
 
+#include "io/registration_file.h"
 #include "io/run_log.h"
 #include "io/scene.h"
 #include "pipeline/annotated_video.h"
@@ -126,6 +127,11 @@ RunOutcome RunScene(const RunOptions& options) {
   log.file().WriteAttribute("/", "wall_s", result.wall_s);
   log.file().WriteAttribute("/", "video_frames_dropped", outcome.video_frames_dropped);
   outcome.simulated_frames = simulation_log.simulated_frames();
+  if (simulation_log.registration() && !built.given_registration) {
+    // What the register stage found, for a scene to reuse (registration: {file: ...}).
+    outcome.registration_path = (fs::path(options.out_dir) / "registration.yaml").string();
+    io::WriteRegistrationYaml(outcome.registration_path, *simulation_log.registration());
+  }
   log.file().WriteAttribute("/", "simulated_frames", outcome.simulated_frames);
   if (result.complete && built.simulation && outcome.simulated_frames == 0) {
     Logger("run").warn("the video ended before the registration window was full: nothing was simulated "

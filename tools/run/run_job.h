@@ -24,6 +24,7 @@ struct RunOptions {
 struct RunOutcome {
   pipeline::RunStatistics statistics;
   std::string log_path, video_path;
+  std::string registration_path;  // registration.yaml, when the run registered the scan itself
   std::int64_t video_frames_dropped = 0;
   std::int64_t simulated_frames = 0;  // frames the FEM stage advanced to (0 without a simulation)
 };
@@ -32,7 +33,8 @@ struct RunOutcome {
 std::string DescribeRunGraph(const RunOptions& options);
 
 // `dynaguide run`: streams the scene's recording through its graph, writing
-// the HDF5 run log and the annotated video into out_dir.
+// the HDF5 run log, the annotated video and (when the run registered the
+// scan itself) registration.yaml into out_dir.
 // @throws dg::Error for a bad scene or options before the run, and, after the
 // outputs are flushed and marked incomplete, when a stage failed (naming the
 // stage and the frame).
