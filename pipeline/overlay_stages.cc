@@ -34,14 +34,7 @@ OverlayDraw DrawWith(std::shared_ptr<Overlay> overlay) {
 
 OverlayFactory MeshesFactory(const io::Scene::Overlays& assets, std::shared_ptr<const SimulationSetup> setup,
                              const io::CameraCalibration& left) {
-  std::vector<overlay::OverlaySurface> surfaces;
-  for (const std::string& file : assets.internal_meshes) {
-    overlay::OverlaySurface surface;
-    surface.mesh = io::ReadObj(file);
-    surface.color_bgr = kStructureColors[surfaces.size() % std::size(kStructureColors)];
-    surface.name = file;
-    surfaces.push_back(std::move(surface));
-  }
+  const std::vector<overlay::OverlaySurface> surfaces = InternalMeshSurfaces(assets);
   return [=](const Eigen::Isometry3d& T_C_S) {
     return DrawWith(std::make_shared<overlay::SurfaceOverlay>(overlay::SurfaceOverlay::Options{}, setup->mesh,
                                                               surfaces, overlay::LensView(left, T_C_S)));
@@ -50,13 +43,7 @@ OverlayFactory MeshesFactory(const io::Scene::Overlays& assets, std::shared_ptr<
 
 OverlayFactory TextureFactory(const io::Scene::Overlays& assets, std::shared_ptr<const SimulationSetup> setup,
                               const io::CameraCalibration& left) {
-  overlay::OverlaySurface surface;
-  surface.mesh = io::ReadObj(assets.surface_mesh);
-  surface.texture = cv::imread(assets.surface_texture, cv::IMREAD_COLOR);
-  if (surface.texture.empty()) {
-    throw Error("cannot read the surface texture", assets.surface_texture, "give a PNG or JPEG image");
-  }
-  surface.name = assets.surface_mesh;
+  const overlay::OverlaySurface surface = TexturedSurface(assets);
   overlay::SurfaceOverlay::Options options;
   options.lit = false;  // landmarks and annotations in their own colours
   return [=](const Eigen::Isometry3d& T_C_S) {
@@ -78,6 +65,29 @@ OverlayFactory VolumeFactory(const std::string& ct_file, std::shared_ptr<const S
 }
 
 }  // namespace
+
+std::vector<overlay::OverlaySurface> InternalMeshSurfaces(const io::Scene::Overlays& assets) {
+  std::vector<overlay::OverlaySurface> surfaces;
+  for (const std::string& file : assets.internal_meshes) {
+    overlay::OverlaySurface surface;
+    surface.mesh = io::ReadObj(file);
+    surface.color_bgr = kStructureColors[surfaces.size() % std::size(kStructureColors)];
+    surface.name = file;
+    surfaces.push_back(std::move(surface));
+  }
+  return surfaces;
+}
+
+overlay::OverlaySurface TexturedSurface(const io::Scene::Overlays& assets) {
+  overlay::OverlaySurface surface;
+  surface.mesh = io::ReadObj(assets.surface_mesh);
+  surface.texture = cv::imread(assets.surface_texture, cv::IMREAD_COLOR);
+  if (surface.texture.empty()) {
+    throw Error("cannot read the surface texture", assets.surface_texture, "give a PNG or JPEG image");
+  }
+  surface.name = assets.surface_mesh;
+  return surface;
+}
 
 OverlayBranch::OverlayBranch(std::string name, int index, OverlayFactory factory,
                              std::shared_ptr<overlay::Compositor> compositor, std::size_t ring_capacity)

@@ -17,6 +17,7 @@
 #include "pipeline/spsc_ring.h"
 #include "pipeline/stage_graph.h"
 #include "stages/overlay/compositor.h"
+#include "stages/overlay/surface_overlay.h"
 
 namespace dg::pipeline {
 
@@ -86,6 +87,12 @@ struct OverlayPlan {
 };
 
 // @throws dg::Error for an overlay whose assets the scene lacks, or an unreadable asset.
+// The surfaces the overlays draw, read from the scene's assets: the internal
+// meshes, each in its own colour, and the surface mesh with its texture.
+// @throws dg::Error for an unreadable mesh or texture.
+std::vector<stages::overlay::OverlaySurface> InternalMeshSurfaces(const io::Scene::Overlays& assets);
+stages::overlay::OverlaySurface TexturedSurface(const io::Scene::Overlays& assets);
+
 // setup: the simulation the overlays draw (its mesh embeds them).
 OverlayPlan PlanOverlays(const io::Scene& scene, std::shared_ptr<const SimulationSetup> setup,
                          const io::CameraCalibration& left);

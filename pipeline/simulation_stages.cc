@@ -11,27 +11,6 @@
 namespace dg::pipeline {
 namespace {
 
-std::vector<cv::Point2f> RectifiedStart(const stages::Triangulator& geometry,
-                                        const std::vector<Eigen::Vector2d>& first_uv_left_px) {
-  std::vector<cv::Point2f> start;
-  for (size_t i = 0; i < first_uv_left_px.size(); ++i) {
-    Eigen::Vector2d uv_R;
-    if (!geometry.LeftToRectified(first_uv_left_px[i], &uv_R)) {
-      throw Error("fiducial " + std::to_string(i) + "'s first-frame pixel is outside the calibrated field",
-                  "registration", "give the fiducial's pixel in the first left frame (registration.fiducials_uv)");
-    }
-    start.emplace_back(static_cast<float>(uv_R.x()), static_cast<float>(uv_R.y()));
-  }
-  return start;
-}
-
-stages::FiducialTracker::Options FiducialOptions(const stages::Triangulator& geometry, double near_m, double far_m) {
-  stages::FiducialTracker::Options options;
-  options.stereo.min_disparity_px = std::max(0.0, std::floor(geometry.DisparityAtDepth(far_m)));
-  options.stereo.max_disparity_px = std::ceil(geometry.DisparityAtDepth(near_m));
-  return options;
-}
-
 const std::vector<int>& NodeSet(const sim::TetMesh& mesh, const std::string& name, const std::string& scene_path) {
   const auto found = mesh.node_sets.find(name);
   if (found == mesh.node_sets.end()) {
@@ -47,7 +26,7 @@ RegisterAdapter::RegisterAdapter(const stages::RegistrationStage::Options& optio
                                  const io::StereoCalibration& calibration, double period_s,
                                  const std::vector<Eigen::Vector2d>& first_uv_left_px, double near_m, double far_m)
     : geometry_(calibration),
-      tracker_(FiducialOptions(geometry_, near_m, far_m), RectifiedStart(geometry_, first_uv_left_px)),
+      tracker_(stages::StartFiducialTracker(geometry_, first_uv_left_px, near_m, far_m)),
       stage_(options, std::move(motion), calibration, period_s) {}
 
 void RegisterAdapter::Process(FramePacket& packet) {

@@ -1,5 +1,8 @@
 #include "stages/register/registration_stage.h"
 
+#include <algorithm>
+#include <cmath>
+
 #include "sim/error.h"
 
 namespace dg::stages {
@@ -52,6 +55,23 @@ bool RegistrationStage::Process(double t_s, std::vector<FiducialSighting> sighti
 const RegistrationResult& RegistrationStage::Solve() {
   if (!result_) result_ = RegisterScanToVideo(motion_, calibration_, period_s_, window_, options_.solver);
   return *result_;
+}
+
+FiducialTracker StartFiducialTracker(const Triangulator& geometry, const std::vector<Eigen::Vector2d>& first_uv_left_px,
+                                     double near_m, double far_m) {
+  std::vector<cv::Point2f> start;
+  for (size_t i = 0; i < first_uv_left_px.size(); ++i) {
+    Eigen::Vector2d uv_R;
+    if (!geometry.LeftToRectified(first_uv_left_px[i], &uv_R)) {
+      throw Error("fiducial " + std::to_string(i) + "'s first-frame pixel is outside the calibrated field",
+                  "registration", "give the fiducial's pixel in the first left frame (registration.fiducials_uv)");
+    }
+    start.emplace_back(static_cast<float>(uv_R.x()), static_cast<float>(uv_R.y()));
+  }
+  FiducialTracker::Options options;
+  options.stereo.min_disparity_px = std::max(0.0, std::floor(geometry.DisparityAtDepth(far_m)));
+  options.stereo.max_disparity_px = std::ceil(geometry.DisparityAtDepth(near_m));
+  return FiducialTracker(options, start);
 }
 
 }  // namespace dg::stages

@@ -17,6 +17,13 @@ namespace dg::stages {
 // rotation and distortion model.
 FiducialSighting SightingFromRectified(const FiducialObservation& observation, const Triangulator& geometry);
 
+// A fiducial tracker started from the fiducials' pixels in the first left
+// frame (original, distorted), searching stereo matches between the depths
+// near_m and far_m. @throws dg::Error naming the fiducial whose pixel lies
+// outside the calibrated field.
+FiducialTracker StartFiducialTracker(const Triangulator& geometry, const std::vector<Eigen::Vector2d>& first_uv_left_px,
+                                     double near_m, double far_m);
+
 // Registration as a stage of the run: collects the fiducials' sightings frame
 // by frame until the window (a whole number of cardiac periods) is full, then
 // solves once and keeps the result for the stages downstream. Stateful:

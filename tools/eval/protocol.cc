@@ -57,13 +57,9 @@ std::string WriteTruthRegistration(const io::Scene& scene) {
 
 // The scene in one mode, beside the original (its relative paths still
 // resolve), without overlays: the errors do not depend on drawing them.
-std::string WriteModeScene(const std::string& scene_file, const std::string& mode, bool truth_registration) {
-  const io::Scene scene = io::ReadScene(scene_file);  // validates, and names what is missing
-  if (scene.truth.empty() || !scene.preoperative) {
-    throw Error("the scene has no ground truth or no preoperative scan", scene_file,
-                "evaluate a phantom scene (dynaguide phantom writes truth.h5 and scan.h5)");
-  }
-  YAML::Node root = YAML::LoadFile(scene_file);
+std::string WriteModeScene(const io::Scene& scene, const std::string& mode, bool truth_registration) {
+  const std::string& scene_file = scene.path;
+  YAML::Node root = YAML::Load(scene.text);
   root["simulation"]["mode"] = mode;
   root.remove("overlays");
   if (truth_registration) {
@@ -75,11 +71,6 @@ std::string WriteModeScene(const std::string& scene_file, const std::string& mod
   out << "# " << scene_file << " in " << mode << " mode, for `dynaguide eval protocol`\n" << YAML::Dump(root) << "\n";
   if (!out) throw Error("cannot write the mode's scene", path, "make the scene's directory writable");
   return path;
-}
-
-std::string SceneName(const std::string& scene_file) {
-  const io::Scene scene = io::ReadScene(scene_file);
-  return scene.name.empty() ? fs::path(scene_file).parent_path().filename().string() : scene.name;
 }
 
 std::string Fixed(double value, int digits = 2) {
@@ -148,10 +139,15 @@ ProtocolResult RunProtocol(const ProtocolOptions& options) {
     if (!jobs) throw Error("cannot write the job list", options.emit_jobs, "check the directory exists");
   }
   for (const std::string& scene_file : SceneFiles(options)) {
-    const std::string name = SceneName(scene_file);
+    const io::Scene scene = io::ReadScene(scene_file);  // validates, and names what is missing
+    if (scene.truth.empty() || !scene.preoperative) {
+      throw Error("the scene has no ground truth or no preoperative scan", scene_file,
+                  "evaluate a phantom scene (dynaguide phantom writes truth.h5 and scan.h5)");
+    }
+    const std::string& name = scene.name;
     for (const std::string& mode : ProtocolModes()) {
       RunOptions run;
-      run.scene = WriteModeScene(scene_file, mode, options.truth_registration);
+      run.scene = WriteModeScene(scene, mode, options.truth_registration);
       run.out_dir = runs_dir + "/" + name + "/" + mode;
       run.threads = options.threads;
       run.video = false;

@@ -1,11 +1,10 @@
 #include "tools/overlay/phantom_overlay_scene.h"
 
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/videoio.hpp>
 
 #include "io/gmsh_reader.h"
 #include "io/h5_file.h"
-#include "io/surface_mesh.h"
+#include "pipeline/overlay_stages.h"
 #include "sim/error.h"
 #include "tools/phantom/phantom_spec.h"
 
@@ -19,9 +18,6 @@ template <int Dims>
 Eigen::Matrix<double, Dims, Eigen::Dynamic> FrameColumns(const std::vector<double>& data, int frame, Eigen::Index count) {
   return Eigen::Map<const Eigen::Matrix<double, Dims, Eigen::Dynamic>>(data.data() + frame * count * Dims, Dims, count);
 }
-
-// Distinct colours for the internal structures (BGR).
-const std::vector<Eigen::Vector3f> kStructureColors{{0.95f, 0.55f, 0.25f}, {0.3f, 0.85f, 0.95f}, {0.5f, 0.95f, 0.4f}};
 
 }  // namespace
 
@@ -84,28 +80,14 @@ overlay::LensView PhantomOverlayScene::LeftView() const { return overlay::LensVi
 
 std::unique_ptr<overlay::SurfaceOverlay> PhantomOverlayScene::MakeMeshOverlay(
     const overlay::SurfaceOverlay::Options& options) const {
-  std::vector<overlay::OverlaySurface> surfaces;
-  for (const std::string& file : scene_.overlays->internal_meshes) {
-    overlay::OverlaySurface surface;
-    surface.mesh = io::ReadObj(file);
-    surface.color_bgr = kStructureColors[surfaces.size() % kStructureColors.size()];
-    surface.name = file;
-    surfaces.push_back(std::move(surface));
-  }
-  return std::make_unique<overlay::SurfaceOverlay>(options, mesh_, std::move(surfaces), LeftView());
+  return std::make_unique<overlay::SurfaceOverlay>(options, mesh_, pipeline::InternalMeshSurfaces(*scene_.overlays),
+                                                   LeftView());
 }
 
 std::unique_ptr<overlay::SurfaceOverlay> PhantomOverlayScene::MakeTextureOverlay(
     const overlay::SurfaceOverlay::Options& options) const {
-  overlay::OverlaySurface surface;
-  surface.mesh = io::ReadObj(scene_.overlays->surface_mesh);
-  surface.texture = cv::imread(scene_.overlays->surface_texture, cv::IMREAD_COLOR);
-  if (surface.texture.empty())
-    throw Error("cannot read the surface texture", scene_.overlays->surface_texture, "give a PNG or JPEG image");
-  surface.name = scene_.overlays->surface_mesh;
-  std::vector<overlay::OverlaySurface> surfaces;
-  surfaces.push_back(std::move(surface));
-  return std::make_unique<overlay::SurfaceOverlay>(options, mesh_, std::move(surfaces), LeftView());
+  return std::make_unique<overlay::SurfaceOverlay>(
+      options, mesh_, std::vector<overlay::OverlaySurface>{pipeline::TexturedSurface(*scene_.overlays)}, LeftView());
 }
 
 std::unique_ptr<overlay::VolumeOverlay> PhantomOverlayScene::MakeVolumeOverlay(

@@ -1,9 +1,5 @@
 #include "tools/register/video_fiducials.h"
 
-#include <cmath>
-
-#include <opencv2/imgproc.hpp>
-
 #include "io/calibration.h"
 #include "sim/error.h"
 #include "stages/capture.h"
@@ -17,13 +13,6 @@ namespace {
 
 // Endoscopic fiducials lie a few centimetres away: the stereo search's depth range.
 constexpr double kNear_m = 0.03, kFar_m = 0.30;
-
-cv::Mat Grey(const cv::Mat& image) {
-  if (image.channels() == 1) return image;
-  cv::Mat grey;
-  cv::cvtColor(image, grey, cv::COLOR_BGR2GRAY);
-  return grey;
-}
 
 }  // namespace
 
@@ -39,26 +28,14 @@ stages::FiducialTracks TrackFiducialsInVideo(const io::Scene& scene, const std::
   calibration.rectification = rectify.rectification();
   const stages::Triangulator geometry(calibration);
 
-  std::vector<cv::Point2f> start;
-  for (size_t i = 0; i < first_uv_left_px.size(); ++i) {
-    Eigen::Vector2d uv_R;
-    if (!geometry.LeftToRectified(first_uv_left_px[i], &uv_R)) {
-      throw Error("fiducial " + std::to_string(i) + "'s first-frame pixel is outside the calibrated field", scene.path,
-                  "give the fiducial's pixel in the first left frame");
-    }
-    start.emplace_back(static_cast<float>(uv_R.x()), static_cast<float>(uv_R.y()));
-  }
-  stages::FiducialTracker::Options options;
-  options.stereo.min_disparity_px = std::max(0.0, std::floor(geometry.DisparityAtDepth(kFar_m)));
-  options.stereo.max_disparity_px = std::ceil(geometry.DisparityAtDepth(kNear_m));
-  stages::FiducialTracker tracker(options, start);
+  stages::FiducialTracker tracker = stages::StartFiducialTracker(geometry, first_uv_left_px, kNear_m, kFar_m);
 
   stages::FiducialTracks tracks;
   while (std::optional<stages::StereoFrame> frame = capture.Next()) {
     // Frames starting within the window (to a microsecond: periods are given rounded).
     if (!tracks.t_s.empty() && frame->t_s - tracks.t_s.front() >= window_s - 1e-6) break;
-    frame->left = Grey(frame->left);
-    frame->right = Grey(frame->right);
+    stages::ConvertToGrey(frame->left, frame->left);
+    stages::ConvertToGrey(frame->right, frame->right);
     const stages::RectifiedPair pair = rectify.Process(*frame);
     std::vector<stages::FiducialSighting> sightings;
     for (const stages::FiducialObservation& seen : tracker.Process(pair.left, pair.right)) {
