@@ -5,6 +5,7 @@
 #include <CLI/CLI.hpp>
 
 #include "tools/commands.h"
+#include "tools/eval/eval_subcommands.h"
 #include "tools/eval/protocol.h"
 
 namespace dg::tools {
@@ -56,6 +57,8 @@ void AddEvalCommand(CLI::App& app) {
                     "Give the runs the truth's registration (the modes' errors without the registration's)");
   protocol->add_flag("--quiet", args->quiet, "No progress lines");
   protocol->callback([args] { RunProtocolCommand(*args); });
+  AddStabilityCommand(*eval);
+  AddRuntimeCommand(*eval);
 }
 
 }  // namespace dg::tools

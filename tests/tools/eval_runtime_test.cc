@@ -1,0 +1,1 @@
+// Tests of dynaguide eval runtime (issue 9): being written.

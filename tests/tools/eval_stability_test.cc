@@ -1,0 +1,1 @@
+// Tests of dynaguide eval stability (issue 9): being written.

@@ -1,0 +1,10 @@
+// `dynaguide eval runtime` (issue 9): being written.
+#include <CLI/CLI.hpp>
+
+#include "tools/eval/eval_subcommands.h"
+
+namespace dg::tools {
+
+void AddRuntimeCommand(CLI::App& /*eval*/) {}
+
+}  // namespace dg::tools

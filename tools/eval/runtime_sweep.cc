@@ -1,0 +1,1 @@
+#include "tools/eval/runtime_sweep.h"

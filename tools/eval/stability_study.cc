@@ -1,0 +1,1 @@
+#include "tools/eval/stability_study.h"
