@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <optional>
 #include <random>
 
 #include <opencv2/imgcodecs.hpp>
@@ -26,6 +27,7 @@
 #include "tools/phantom/scene_file.h"
 #include "tools/phantom/stereo_rig.h"
 #include "tools/phantom/surface_assets.h"
+#include "tools/phantom/uncompressed_avi.h"
 
 namespace dg::tools::phantom {
 namespace {
@@ -151,19 +153,45 @@ Eigen::Matrix3Xd DeformAll(const HeartMotion& motion, const MotionState& state, 
   return x;
 }
 
-cv::VideoWriter OpenVideo(const std::string& path, const PhantomSpec& spec) {
-  // HuffYUV: lossless, as a frame grabber records for measurement, about 520 kB
-  // per 640x480 frame, and decoded 3-5 times faster than FFV1 (410 kB), whose
-  // decoding took most of the front end's time. Lossy codecs decode faster
-  // still (Motion JPEG at quality 95: 75 kB, about 1.3 ms), but their halved
-  // chroma resolution moves the green markers' centroids by up to 0.45 px,
-  // beyond the 0.3 px the marker analysis of the ground truth is held to.
-  cv::VideoWriter writer(path, cv::VideoWriter::fourcc('H', 'F', 'Y', 'U'), spec.fps, cv::Size(spec.width, spec.height));
-  if (!writer.isOpened()) {
-    throw Error("cannot open a video writer (HuffYUV)", path, "check that OpenCV was built with FFmpeg (Debian's is)");
+// One eye's recording in the spec's lossless codec. Lossy codecs decode
+// faster than HuffYUV (Motion JPEG at quality 95: about 1.3 ms a frame) but
+// their halved chroma resolution moves the green markers' centroids by up to
+// 0.45 px, beyond the 0.3 px the marker analysis of the ground truth is held
+// to; FFV1 (0.4 MB a frame) decodes 3-5 times slower than HuffYUV.
+class LosslessVideo {
+ public:
+  LosslessVideo(const std::string& path, const PhantomSpec& spec) {
+    const cv::Size size(spec.width, spec.height);
+    if (spec.video_codec == "raw") {
+      raw_.emplace(path, size, spec.fps);
+      return;
+    }
+    huffyuv_.open(path, cv::VideoWriter::fourcc('H', 'F', 'Y', 'U'), spec.fps, size);
+    if (!huffyuv_.isOpened()) {
+      throw Error("cannot open a video writer (HuffYUV)", path, "check that OpenCV was built with FFmpeg (Debian's is)");
+    }
   }
-  return writer;
-}
+
+  void Write(const cv::Mat& bgr) {
+    if (raw_) {
+      raw_->Write(bgr);
+    } else {
+      huffyuv_.write(bgr);
+    }
+  }
+
+  void Close() {
+    if (raw_) {
+      raw_->Close();
+    } else {
+      huffyuv_.release();
+    }
+  }
+
+ private:
+  std::optional<UncompressedAviWriter> raw_;
+  cv::VideoWriter huffyuv_;
+};
 
 void WriteChessboards(const PhantomSpec& spec, const StereoRig& rig, DistortedView* left, DistortedView* right,
                       const std::string& dir, io::H5Writer* truth) {
@@ -310,8 +338,8 @@ PhantomSummary GeneratePhantom(const PhantomSpec& spec, const std::string& out_d
   scene.mount_normals = Eigen::Vector3d::UnitZ().replicate(1, mount.plate.num_vertices());
   scene.light_S = rig.T_C_S.inverse() * Eigen::Vector3d(0.5 * rig.calibration.T_m.norm(), 0, 0);
   const Eigen::Isometry3d T_R_S = rig.T_R_S();
-  cv::VideoWriter left_video = OpenVideo(out_dir + "/video/left.avi", spec);
-  cv::VideoWriter right_video = OpenVideo(out_dir + "/video/right.avi", spec);
+  LosslessVideo left_video(out_dir + "/video/left.avi", spec);
+  LosslessVideo right_video(out_dir + "/video/right.avi", spec);
   TrackedPoints fiducial_truth(frames, assets.fiducials_S.cols());
   TrackedPoints surface_truth(frames, assets.surface_points_S.cols());
   std::vector<double> internal_xyz, times, activation, sway;
@@ -323,9 +351,9 @@ PhantomSummary GeneratePhantom(const PhantomSpec& spec, const std::string& out_d
     sway.push_back(state.sway);
     const Eigen::Matrix3Xd skin = DeformAll(motion, state, assets.skin.vertices_m);
     const Eigen::Matrix3Xd normals = VertexNormals(skin, assets.skin.triangles);
-    left_video.write(Expose(RenderEye(&left_view, rig.T_C_S, scene, skin, normals), spec.sensor_noise,
+    left_video.Write(Expose(RenderEye(&left_view, rig.T_C_S, scene, skin, normals), spec.sensor_noise,
                             spec.seed * 7919 + 2 * j));
-    right_video.write(Expose(RenderEye(&right_view, T_R_S, scene, skin, normals), spec.sensor_noise,
+    right_video.Write(Expose(RenderEye(&right_view, T_R_S, scene, skin, normals), spec.sensor_noise,
                              spec.seed * 7919 + 2 * j + 1));
 
     for (auto [points, truth_set] : {std::pair{&assets.fiducials_S, &fiducial_truth}, std::pair{&assets.surface_points_S, &surface_truth}}) {
@@ -338,8 +366,8 @@ PhantomSummary GeneratePhantom(const PhantomSpec& spec, const std::string& out_d
     internal_xyz.insert(internal_xyz.end(), internal_C.data(), internal_C.data() + internal_C.size());
     if (progress && (j + 1) % std::max(1, frames / 10) == 0) std::fprintf(stderr, "phantom: frame %d / %d\n", j + 1, frames);
   }
-  left_video.release();
-  right_video.release();
+  left_video.Close();
+  right_video.Close();
 
   const size_t J = frames;
   truth.WriteMatrix("/T_C_S", rig.T_C_S.matrix());

@@ -23,6 +23,7 @@ std::string PhantomSpec::Validate() const {
   if (width < 64 || height < 48 || width % 2 || height % 2) return "--size must be at least 64x48, even numbers";
   if (!(fps > 0 && fps <= 240)) return "--fps must lie in (0, 240]";
   if (!(duration_s > 0)) return "--duration must be positive";
+  if (video_codec != "raw" && video_codec != "huffyuv") return "--codec must be raw or huffyuv";
   if (supersample < 1 || supersample > 4) return "supersample must lie in [1, 4]";
   if (chessboard_pairs < 15) return "at least 15 chessboard pairs are needed for calibration";
   if (const std::string wrong = material.Validate(); !wrong.empty()) return wrong;
