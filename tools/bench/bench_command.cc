@@ -28,6 +28,9 @@ void AddVisionBench(CLI::App& bench) {
   vision->add_option("--threads", options->threads, "Thread counts")->delimiter(',')->capture_default_str();
   vision->add_option("--frames", options->frames, "Frames timed per thread count (0: all)")->capture_default_str();
   vision->add_option("--seconds", options->duration_s, "Length of the generated phantom video")->capture_default_str();
+  vision->add_option("--codecs", options->codecs, "The phantom video's codecs measured: raw (uncompressed), huffyuv")
+      ->delimiter(',')
+      ->capture_default_str();
   vision->add_option("--json", *json_path, "Save the records to this JSON file");
   vision->callback([options, json_path] {
     PrintMachine();

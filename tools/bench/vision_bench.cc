@@ -78,34 +78,44 @@ VisionBenchRecord Measure(const std::string& scene, int threads, const VisionBen
 
 std::vector<VisionBenchRecord> RunVisionBench(const VisionBenchOptions& options, bool progress) {
   if (!(options.duration_s > 0)) throw Error("the phantom's duration must be positive", "dynaguide bench vision", "give e.g. 2");
-  // One folder per process: two benchmarks may run at once.
-  const fs::path dir = fs::temp_directory_path() / ("dg_bench_vision_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
-  phantom::PhantomSpec spec = phantom::PresetSpec("default");
-  spec.duration_s = options.duration_s;
-  if (progress) std::fprintf(stderr, "bench vision: generating a %.1f s default phantom in %s\n", spec.duration_s, dir.c_str());
-  phantom::GeneratePhantom(spec, dir.string(), false);
   std::vector<VisionBenchRecord> records;
-  for (int threads : options.threads) {
-    records.push_back(Measure((dir / "scene.yaml").string(), threads, options));
-    if (progress) {
-      const VisionBenchRecord& r = records.back();
-      std::fprintf(stderr, "bench vision: %d thread%s: %.1f ms median, %.1f ms p95 over %d frames, %d features\n",
-                   r.threads, r.threads > 1 ? "s" : "", r.ms_median, r.ms_p95, r.frames, r.features);
+  for (const std::string& codec : options.codecs) {
+    phantom::PhantomSpec spec = phantom::PresetSpec("default");
+    spec.duration_s = options.duration_s;
+    spec.video_codec = codec;
+    if (const std::string problem = spec.Validate(); !problem.empty()) {
+      throw Error(problem, "dynaguide bench vision --codecs", "give raw, huffyuv or both");
     }
+    // One folder per process and codec: two benchmarks may run at once.
+    const fs::path dir = fs::temp_directory_path() / ("dg_bench_vision_" + std::to_string(::getpid()) + "_" + codec);
+    fs::remove_all(dir);
+    if (progress) {
+      std::fprintf(stderr, "bench vision: generating a %.1f s default phantom (%s video) in %s\n", spec.duration_s,
+                   codec.c_str(), dir.c_str());
+    }
+    phantom::GeneratePhantom(spec, dir.string(), false);
+    for (int threads : options.threads) {
+      records.push_back(Measure((dir / "scene.yaml").string(), threads, options));
+      VisionBenchRecord& r = records.back();
+      r.codec = codec;
+      if (progress) {
+        std::fprintf(stderr, "bench vision: %s video, %d thread%s: %.1f ms median, %.1f ms p95 over %d frames, %d features\n",
+                     codec.c_str(), r.threads, r.threads > 1 ? "s" : "", r.ms_median, r.ms_p95, r.frames, r.features);
+      }
+    }
+    fs::remove_all(dir);
   }
-  fs::remove_all(dir);
   return records;
 }
 
 void WriteVisionBenchJson(const std::string& path, const std::vector<VisionBenchRecord>& records) {
   std::vector<std::string> fields;
   for (const VisionBenchRecord& r : records) {
-    fields.push_back(Printed("\"threads\": %d, \"width\": %d, \"height\": %d, \"frames\": %d, \"features\": %d, "
+    fields.push_back(Printed("\"codec\": \"%s\", \"threads\": %d, \"width\": %d, \"height\": %d, \"frames\": %d, \"features\": %d, "
                              "\"ms_median\": %.4g, \"ms_p95\": %.4g, \"fps\": %.4g, \"capture_ms\": %.4g, "
                              "\"rectify_ms\": %.4g, \"temporal_ms\": %.4g, \"detect_ms\": %.4g, \"detect_ms_max\": %.4g, "
                              "\"stereo_ms\": %.4g, \"triangulate_ms\": %.4g",
-                             r.threads, r.width, r.height, r.frames, r.features, r.ms_median, r.ms_p95, r.fps, r.capture_ms,
+                             r.codec.c_str(), r.threads, r.width, r.height, r.frames, r.features, r.ms_median, r.ms_p95, r.fps, r.capture_ms,
                              r.rectify_ms, r.temporal_ms, r.detect_ms, r.detect_ms_max, r.stereo_ms, r.triangulate_ms));
   }
   WriteBenchJson(path, fields);
@@ -113,14 +123,14 @@ void WriteVisionBenchJson(const std::string& path, const std::vector<VisionBench
 
 std::string VisionBenchTable(const std::vector<VisionBenchRecord>& records) {
   std::string table =
-      "| threads | size | features | ms median | ms p95 | fps | capture | rectify | temporal (LK) | detect (median/max) "
+      "| codec | threads | size | features | ms median | ms p95 | fps | capture | rectify | temporal (LK) | detect (median/max) "
       "| stereo | triangulate |\n"
-      "|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
+      "|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
   for (const VisionBenchRecord& r : records) {
     char line[320];
     std::snprintf(line, sizeof line,
-                  "| %d | %dx%d | %d | %.1f | %.1f | %.0f | %.2f | %.2f | %.2f | %.2f / %.1f | %.2f | %.2f |\n",
-                  r.threads, r.width, r.height, r.features, r.ms_median, r.ms_p95, r.fps, r.capture_ms, r.rectify_ms,
+                  "| %s | %d | %dx%d | %d | %.1f | %.1f | %.0f | %.2f | %.2f | %.2f | %.2f / %.1f | %.2f | %.2f |\n",
+                  r.codec.c_str(), r.threads, r.width, r.height, r.features, r.ms_median, r.ms_p95, r.fps, r.capture_ms, r.rectify_ms,
                   r.temporal_ms, r.detect_ms, r.detect_ms_max, r.stereo_ms, r.triangulate_ms);
     table += line;
   }

@@ -9,6 +9,9 @@ struct VisionBenchOptions {
   std::vector<int> threads{1, 2};
   int frames = 0;            // frames timed per thread count; 0: all of the phantom's
   double duration_s = 2.0;   // of the generated phantom video (30 fps)
+  // The phantom's video codecs measured (both lossless): "raw" (uncompressed,
+  // as a frame grabber delivers) and "huffyuv" (a compressed recording).
+  std::vector<std::string> codecs{"raw", "huffyuv"};
 };
 
 // One line of the saved table: the interface users script against (issue 4).
@@ -18,6 +21,7 @@ struct VisionBenchOptions {
 // rectified and tracked, so capture_ms is the wait for a decoded frame (the
 // decoding that tracking did not hide), not the decoding time itself.
 struct VisionBenchRecord {
+  std::string codec;  // of the video read
   int threads = 0;
   int width = 0, height = 0;
   int frames = 0;
@@ -29,7 +33,8 @@ struct VisionBenchRecord {
 };
 
 // Capture + rectification + feature tracking on a default-preset phantom
-// (generated into a temporary folder and removed afterwards), per thread count.
+// (generated into a temporary folder per codec and removed afterwards), per
+// codec and thread count.
 std::vector<VisionBenchRecord> RunVisionBench(const VisionBenchOptions& options, bool progress);
 
 // Writes the records as a JSON list, each with the machine it ran on.
