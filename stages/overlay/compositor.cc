@@ -117,6 +117,14 @@ int Compositor::held_layers() const {
 }
 
 CompositeFrame Compositor::Compose(const cv::Mat& video_bgr, std::int64_t frame) const {
+  CompositeFrame out;
+  out.frame = frame;
+  Compose(video_bgr, frame, &out.bgr, &out.layer_age_frames);
+  return out;
+}
+
+void Compositor::Compose(const cv::Mat& video_bgr, std::int64_t frame, cv::Mat* composite_bgr,
+                         std::vector<std::int64_t>* layer_age_frames) const {
   const std::string where = "compositor, frame " + std::to_string(frame);
   if (video_bgr.type() != CV_8UC3) throw Error("the video frame is not 8-bit BGR", where, "pass the captured colour frame");
   std::vector<OverlayLayer> layers;
@@ -124,13 +132,14 @@ CompositeFrame Compositor::Compose(const cv::Mat& video_bgr, std::int64_t frame)
     std::lock_guard lock(mutex_);
     layers = latest_;  // headers only: a handed-over layer is never written again
   }
-  CompositeFrame out{cv::Mat(video_bgr.size(), CV_8UC3), frame, {}};
+  composite_bgr->create(video_bgr.size(), CV_8UC3);  // no-op when it has that size and type already
+  if (layer_age_frames) layer_age_frames->clear();
   std::vector<const OverlayLayer*> used;
   std::vector<std::uint8_t> salient;  // per used layer
   for (size_t i = 0; i < layers.size(); ++i) {
     const OverlayLayer& layer = layers[i];
     const bool usable = !layer.empty() && layer.frame <= frame;
-    out.layer_age_frames.push_back(usable ? frame - layer.frame : -1);
+    if (layer_age_frames) layer_age_frames->push_back(usable ? frame - layer.frame : -1);
     if (!usable) continue;
     if (layer.bgra.size() != video_bgr.size() || layer.bgra.type() != CV_32FC4)
       throw Error("overlay '" + options_.layers[i].name + "' has a " + std::to_string(layer.bgra.cols) + "x" +
@@ -154,7 +163,7 @@ CompositeFrame Compositor::Compose(const cv::Mat& video_bgr, std::int64_t frame)
       for (int y = y_begin; y < y_end; ++y) {
         for (size_t l = 0; l < used.size(); ++l) layer_rows[l] = used[l]->bgra.ptr<float>(y);
         const RowJob job{video_bgr.ptr<std::uint8_t>(y),
-                         out.bgr.ptr<std::uint8_t>(y),
+                         composite_bgr->ptr<std::uint8_t>(y),
                          video_bgr.cols,
                          layer_rows.data(),
                          salient.data(),
@@ -165,7 +174,6 @@ CompositeFrame Compositor::Compose(const cv::Mat& video_bgr, std::int64_t frame)
       }
     }
   });
-  return out;
 }
 
 }  // namespace dg::stages::overlay

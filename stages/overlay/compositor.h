@@ -51,8 +51,12 @@ struct CompositeFrame {
 //
 // Compose() is one pass over the frame in bands of rows (in parallel): per
 // band the saliency rows (SaliencyBand) and then every layer over each pixel
-// in order, so the frame, the layers and the saliency are each read once and
-// nothing but the composite is allocated per frame.
+// in order, so the frame, the layers and the saliency are each read once. It
+// writes into the caller's image, so a caller that keeps its image from frame
+// to frame (the pipeline's pooled packets) allocates no image per frame.
+//
+// A stereo run has one compositor per eye: each eye's overlays are drawn
+// through that eye's lens and offered to that eye's compositor.
 class Compositor {
  public:
   // @throws dg::Error for invalid options.
@@ -62,8 +66,14 @@ class Compositor {
   // if it is newer than the one held. @throws dg::Error for an unknown index.
   void Offer(int overlay, OverlayLayer layer);
 
-  // The frame with the held layers composed over it, in order.
+  // The frame with the held layers composed over it, in order, into
+  // *composite_bgr (CV_8UC3, the frame's size; its buffer is reused when it
+  // has them already); each layer's age into *layer_age_frames unless null.
+  // @pre composite_bgr is not video_bgr and shares no buffer another thread reads.
   // @throws dg::Error if the frame is not 8-bit BGR or a layer's size differs from it.
+  void Compose(const cv::Mat& video_bgr, std::int64_t frame, cv::Mat* composite_bgr,
+               std::vector<std::int64_t>* layer_age_frames) const;
+  // The same into a new image, for one-off callers (snapshots, benchmarks).
   CompositeFrame Compose(const cv::Mat& video_bgr, std::int64_t frame) const;
 
   // Layers currently held (at most one per overlay).

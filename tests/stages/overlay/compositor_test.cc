@@ -168,6 +168,31 @@ TEST_CASE("compositor: Inverse Realism keeps the frame's salient cues over the a
   REQUIRE(stripe[1] == Approx((1 - strength) * 255 + strength * original[1]).margin(1));
 }
 
+// Composing into the caller's image (the pipeline's pooled packets): an image
+// of another size is given the frame's, one of the right size keeps its buffer
+// frame after frame, and each frame is the hand-computed blend of its own video.
+TEST_CASE("compositor: composing into the caller's image reuses its buffer", "[stages][unit]") {
+  CompositorOptions options;
+  options.layers = {{"mesh", BlendMode::kAlpha}};
+  Compositor compositor(options);
+  compositor.Offer(0, ConstantLayer(6, 4, {0.5f, 0.0f, 0.0f, 0.5f}, 1));
+  cv::Mat into(2, 3, CV_8UC3);
+  std::vector<std::int64_t> ages{7, 7, 7};
+  const std::uint8_t* buffer = nullptr;
+  for (std::int64_t j = 1; j <= 3; ++j) {
+    const double grey = 40.0 * j;
+    compositor.Compose(cv::Mat(4, 6, CV_8UC3, cv::Scalar::all(grey)), j, &into, j == 3 ? nullptr : &ages);
+    REQUIRE(into.size() == cv::Size(6, 4));
+    if (j == 1) buffer = into.data;
+    REQUIRE(into.data == buffer);
+    // out = c + (1 - a) video, per channel.
+    REQUIRE(into.at<cv::Vec3b>(3, 5)[0] == Approx(255 * 0.5 + 0.5 * grey).margin(0.5));
+    REQUIRE(into.at<cv::Vec3b>(0, 0)[1] == Approx(0.5 * grey).margin(0.5));
+    if (j < 3) REQUIRE(ages == std::vector<std::int64_t>{j - 1});
+  }
+  REQUIRE(ages == std::vector<std::int64_t>{1});  // untouched when not asked for
+}
+
 // The video loop composes 60 frames while the slow overlay's second layer is
 // still being made (it waits on a promise the loop only fulfils at the end):
 // every frame is composed, reusing the slow overlay's first layer, whose age grows.
