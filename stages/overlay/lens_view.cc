@@ -104,4 +104,11 @@ cv::Mat LensView::RayLengthPerDepth() const {
   return length;
 }
 
+LensView RightLensView(const io::StereoCalibration& stereo, const Eigen::Isometry3d& T_C_S) {
+  Eigen::Isometry3d T_R_C = Eigen::Isometry3d::Identity();
+  T_R_C.linear() = stereo.R;
+  T_R_C.translation() = stereo.T_m;
+  return LensView(stereo.right, T_R_C * T_C_S);
+}
+
 }  // namespace dg::stages::overlay

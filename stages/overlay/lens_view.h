@@ -53,4 +53,10 @@ class LensView {
   double r2_limit_ = 0;  // squared normalised radius beyond which the radial factor is held
 };
 
+// The right eye's view of what the left camera sees at pose T_C_S: the right
+// camera's calibration (intrinsics and distortion) at T_R_S = T_R_C T_C_S,
+// T_R_C = [R | T] the stereo calibration's left-to-right transform.
+// @throws dg::Error as LensView's constructor, for the right camera.
+LensView RightLensView(const io::StereoCalibration& stereo, const Eigen::Isometry3d& T_C_S);
+
 }  // namespace dg::stages::overlay

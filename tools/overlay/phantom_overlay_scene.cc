@@ -42,6 +42,8 @@ PhantomOverlayScene::PhantomOverlayScene(const std::string& scene_path) : scene_
   surface_xyz_C_ = truth.Read<double>("/surface_points/xyz_C_m");
   surface_uv_left_ = truth.Read<double>("/surface_points/uv_left_px");
   surface_visible_left_ = truth.Read<std::uint8_t>("/surface_points/visible_left");
+  surface_uv_right_ = truth.Read<double>("/surface_points/uv_right_px");
+  surface_visible_right_ = truth.Read<std::uint8_t>("/surface_points/visible_right");
   internal_xyz_C_ = truth.Read<double>("/internal_points/xyz_C_m");
 }
 
@@ -60,8 +62,11 @@ PhantomTruthFrame PhantomOverlayScene::Truth(int frame) const {
   PhantomTruthFrame truth;
   truth.surface_C = FrameColumns<3>(surface_xyz_C_, frame, surface);
   truth.surface_uv_left_px = FrameColumns<2>(surface_uv_left_, frame, surface);
+  truth.surface_uv_right_px = FrameColumns<2>(surface_uv_right_, frame, surface);
   truth.surface_visible_left.assign(surface_visible_left_.begin() + frame * surface,
                                     surface_visible_left_.begin() + (frame + 1) * surface);
+  truth.surface_visible_right.assign(surface_visible_right_.begin() + frame * surface,
+                                     surface_visible_right_.begin() + (frame + 1) * surface);
   truth.internal_C = FrameColumns<3>(internal_xyz_C_, frame, internal);
   return truth;
 }
@@ -77,6 +82,8 @@ cv::Mat PhantomOverlayScene::LeftFrame(int frame) const {
 }
 
 overlay::LensView PhantomOverlayScene::LeftView() const { return overlay::LensView(calibration_.left, T_C_S_); }
+
+overlay::LensView PhantomOverlayScene::RightView() const { return overlay::RightLensView(calibration_, T_C_S_); }
 
 std::unique_ptr<overlay::SurfaceOverlay> PhantomOverlayScene::MakeMeshOverlay(
     const overlay::SurfaceOverlay::Options& options) const {

@@ -19,11 +19,12 @@
 
 namespace dg::tools {
 
-// The ground truth of one frame of a phantom, left camera frame.
+// The ground truth of one frame of a phantom: positions in the left camera
+// frame, and where each camera sees the surface points (distorted pixels).
 struct PhantomTruthFrame {
   Eigen::Matrix3Xd surface_C;           // the dense surface material points
-  Eigen::Matrix2Xd surface_uv_left_px;
-  std::vector<std::uint8_t> surface_visible_left;
+  Eigen::Matrix2Xd surface_uv_left_px, surface_uv_right_px;
+  std::vector<std::uint8_t> surface_visible_left, surface_visible_right;
   Eigen::Matrix3Xd internal_C;          // chamber centres and poles
 };
 
@@ -59,6 +60,7 @@ class PhantomOverlayScene {
   std::unique_ptr<stages::overlay::VolumeOverlay> MakeVolumeOverlay(
       const stages::overlay::VolumeOverlay::Options& options) const;
   stages::overlay::LensView LeftView() const;
+  stages::overlay::LensView RightView() const;  // the right camera at the truth's pose (RightLensView)
 
  private:
   io::Scene scene_;
@@ -69,8 +71,8 @@ class PhantomOverlayScene {
   std::vector<phantom::MotionState> states_;
   Eigen::Matrix3Xd surface_points_S_, internal_points_S_;
   // truth.h5's per-frame datasets, frame-major as stored.
-  std::vector<double> surface_xyz_C_, surface_uv_left_, internal_xyz_C_;
-  std::vector<std::uint8_t> surface_visible_left_;
+  std::vector<double> surface_xyz_C_, surface_uv_left_, surface_uv_right_, internal_xyz_C_;
+  std::vector<std::uint8_t> surface_visible_left_, surface_visible_right_;
 };
 
 }  // namespace dg::tools
