@@ -59,6 +59,7 @@ struct FramePacket {
   // may still draw it after the packet is reused.
   std::shared_ptr<const stages::FemFrameOutput> simulation;
   cv::Mat composite;  // the video frame with the overlays' newest layers (BGR); empty without overlays
+  cv::Mat composite_right;  // the same over the right frame, drawn through the right eye; only in a stereo run
   std::vector<std::int64_t> layer_age_frames;  // per overlay: frames since its layer's geometry; -1 none yet
 
   std::array<StageTiming, kMaxStages> timings;

@@ -32,35 +32,31 @@ OverlayDraw DrawWith(std::shared_ptr<Overlay> overlay) {
   return [overlay](const Eigen::Matrix3Xd& nodes_S, std::int64_t frame) { return overlay->Process(nodes_S, frame); };
 }
 
-OverlayFactory MeshesFactory(const io::Scene::Overlays& assets, std::shared_ptr<const SimulationSetup> setup,
-                             const io::CameraCalibration& left) {
+OverlayFactory MeshesFactory(const io::Scene::Overlays& assets, std::shared_ptr<const SimulationSetup> setup) {
   const std::vector<overlay::OverlaySurface> surfaces = InternalMeshSurfaces(assets);
-  return [=](const Eigen::Isometry3d& T_C_S) {
-    return DrawWith(std::make_shared<overlay::SurfaceOverlay>(overlay::SurfaceOverlay::Options{}, setup->mesh,
-                                                              surfaces, overlay::LensView(left, T_C_S)));
+  return [=](const overlay::LensView& view) {
+    return DrawWith(
+        std::make_shared<overlay::SurfaceOverlay>(overlay::SurfaceOverlay::Options{}, setup->mesh, surfaces, view));
   };
 }
 
-OverlayFactory TextureFactory(const io::Scene::Overlays& assets, std::shared_ptr<const SimulationSetup> setup,
-                              const io::CameraCalibration& left) {
+OverlayFactory TextureFactory(const io::Scene::Overlays& assets, std::shared_ptr<const SimulationSetup> setup) {
   const overlay::OverlaySurface surface = TexturedSurface(assets);
   overlay::SurfaceOverlay::Options options;
   options.lit = false;  // landmarks and annotations in their own colours
-  return [=](const Eigen::Isometry3d& T_C_S) {
-    return DrawWith(std::make_shared<overlay::SurfaceOverlay>(options, setup->mesh, std::vector{surface},
-                                                              overlay::LensView(left, T_C_S)));
+  return [=](const overlay::LensView& view) {
+    return DrawWith(std::make_shared<overlay::SurfaceOverlay>(options, setup->mesh, std::vector{surface}, view));
   };
 }
 
-OverlayFactory VolumeFactory(const std::string& ct_file, std::shared_ptr<const SimulationSetup> setup,
-                             const io::CameraCalibration& left) {
+OverlayFactory VolumeFactory(const std::string& ct_file, std::shared_ptr<const SimulationSetup> setup) {
   // The first scan phase is the mesh's reference configuration.
   auto ct = std::make_shared<const io::VolumeI16>(io::ReadMetaImage<std::int16_t>(ct_file));
   overlay::VolumeOverlay::Options options;
   options.slice_spacing_m = 1e-3;  // 28 frames/s on two cores (dynaguide bench overlay)
-  return [=](const Eigen::Isometry3d& T_C_S) {
-    return DrawWith(std::make_shared<overlay::VolumeOverlay>(
-        options, setup->mesh, *ct, overlay::TransferFunction::CardiacDefault(), overlay::LensView(left, T_C_S)));
+  return [=](const overlay::LensView& view) {
+    return DrawWith(std::make_shared<overlay::VolumeOverlay>(options, setup->mesh, *ct,
+                                                             overlay::TransferFunction::CardiacDefault(), view));
   };
 }
 
@@ -89,13 +85,18 @@ overlay::OverlaySurface TexturedSurface(const io::Scene::Overlays& assets) {
   return surface;
 }
 
-OverlayBranch::OverlayBranch(std::string name, int index, OverlayFactory factory,
-                             std::shared_ptr<overlay::Compositor> compositor, std::size_t ring_capacity)
+OverlayBranch::OverlayBranch(std::string name, int index, OverlayFactory factory, OverlayEyes eyes,
+                             std::size_t ring_capacity)
     : name_(std::move(name)),
       index_(index),
       factory_(std::move(factory)),
-      compositor_(std::move(compositor)),
+      eyes_(std::move(eyes)),
       ring_(ring_capacity) {}
+
+void OverlayBranch::BuildEyes(const Eigen::Isometry3d& T_C_S) {
+  drawing_.push_back({factory_(overlay::LensView(eyes_.calibration.left, T_C_S)), eyes_.left, {}});
+  if (eyes_.right) drawing_.push_back({factory_(overlay::RightLensView(eyes_.calibration, T_C_S)), eyes_.right, {}});
+}
 
 void OverlayBranch::Publish(const FramePacket& packet) {
   if (!packet.simulation || !packet.registration) return;
@@ -109,8 +110,10 @@ void OverlayBranch::Drain() {
   // Empty before each pop: what the pop leaves in the ring's slot must not be a geometry.
   for (Geometry geometry; ring_.TryPopLatest(geometry); geometry = {}) {
     const std::int64_t start = SteadyNowNs();
-    if (!draw_) draw_ = factory_(Eigen::Isometry3d(geometry.registration->T_C_S));
-    compositor_->Offer(index_, draw_(geometry.simulation->nodes_S_m, geometry.frame));
+    if (drawing_.empty()) BuildEyes(Eigen::Isometry3d(geometry.registration->T_C_S));
+    // Both eyes drawn before either is offered, so the eyes' composites show the same geometry.
+    for (Eye& eye : drawing_) eye.layer = eye.draw(geometry.simulation->nodes_S_m, geometry.frame);
+    for (Eye& eye : drawing_) eye.compositor->Offer(index_, std::move(eye.layer));
     ++drawn_;
     std::lock_guard lock(timings_mutex_);
     timings_.push_back({geometry.frame, start, SteadyNowNs()});
@@ -122,8 +125,7 @@ std::vector<OverlayTiming> OverlayBranch::timings() const {
   return timings_;
 }
 
-OverlayPlan PlanOverlays(const io::Scene& scene, std::shared_ptr<const SimulationSetup> setup,
-                         const io::CameraCalibration& left) {
+OverlayPlan PlanOverlays(const io::Scene& scene, std::shared_ptr<const SimulationSetup> setup) {
   OverlayPlan plan;
   if (!scene.overlays) return plan;
   const io::Scene::Overlays& assets = *scene.overlays;
@@ -148,22 +150,22 @@ OverlayPlan PlanOverlays(const io::Scene& scene, std::shared_ptr<const Simulatio
     }
     if (name == "texture") {
       plan.compositor.layers.push_back({name, overlay::BlendMode::kAlpha});
-      plan.factories.push_back(TextureFactory(assets, setup, left));
+      plan.factories.push_back(TextureFactory(assets, setup));
     } else if (name == "volume") {
       plan.compositor.layers.push_back({name, anatomy_blend});
-      plan.factories.push_back(VolumeFactory(scene.preoperative->ct_volumes.front(), setup, left));
+      plan.factories.push_back(VolumeFactory(scene.preoperative->ct_volumes.front(), setup));
     } else {
       plan.compositor.layers.push_back({name, anatomy_blend});
-      plan.factories.push_back(MeshesFactory(assets, setup, left));
+      plan.factories.push_back(MeshesFactory(assets, setup));
     }
   }
   return plan;
 }
 
 void CompositeAdapter::Process(FramePacket& packet) {
-  overlay::CompositeFrame composed = compositor_->Compose(packet.raw.left, packet.index);
-  packet.composite = std::move(composed.bgr);
-  packet.layer_age_frames = std::move(composed.layer_age_frames);
+  left_->Compose(packet.raw.left, packet.index, &packet.composite, &packet.layer_age_frames);
+  // The right eye's ages are not logged: its layers come from the same draws as the left's.
+  if (right_) right_->Compose(packet.raw.right, packet.index, &packet.composite_right, nullptr);
 }
 
 }  // namespace dg::pipeline

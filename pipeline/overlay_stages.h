@@ -24,12 +24,24 @@ namespace dg::pipeline {
 // The overlays of a run (paper section 2.7, DESIGN.md section 4): each one a
 // side branch fed by the FEM stage through its own SPSC ring, drawing the
 // newest geometry at its own pace and handing its layer to the compositor;
-// the composite stage lays the newest layers over each video frame.
+// the composite stage lays the newest layers over each video frame. A stereo
+// run (side-by-side video) has a compositor per eye, and each branch draws
+// both eyes; a left-only run draws and composes the left eye alone.
 
 // Draws one frame's layer from the simulated nodes (scan frame).
 using OverlayDraw = std::function<stages::overlay::OverlayLayer(const Eigen::Matrix3Xd& nodes_S, std::int64_t frame)>;
-// Builds an overlay's drawing once the registration (the camera's pose) is known.
-using OverlayFactory = std::function<OverlayDraw(const Eigen::Isometry3d& T_C_S)>;
+// Builds an overlay's drawing through one eye, once the registration (the
+// camera's pose, in the view) is known. Called once per eye: each drawing
+// has buffers of its own.
+using OverlayFactory = std::function<OverlayDraw(const stages::overlay::LensView& view)>;
+
+// Where the overlays' layers go: each eye's compositor, the right one only
+// in a stereo run, and the calibration their lenses are built from.
+struct OverlayEyes {
+  io::StereoCalibration calibration;
+  std::shared_ptr<stages::overlay::Compositor> left;
+  std::shared_ptr<stages::overlay::Compositor> right;  // null: the left eye alone
+};
 
 // When an overlay drew a frame (steady clock), for the run log's /overlay_timings.
 struct OverlayTiming {
@@ -39,10 +51,9 @@ struct OverlayTiming {
 
 class OverlayBranch final : public SideBranch {
  public:
-  // index: the overlay's entry in the compositor's options. ring_capacity:
+  // index: the overlay's entry in the compositors' options. ring_capacity:
   // geometries waiting (more are dropped and counted).
-  OverlayBranch(std::string name, int index, OverlayFactory factory,
-                std::shared_ptr<stages::overlay::Compositor> compositor, std::size_t ring_capacity = 2);
+  OverlayBranch(std::string name, int index, OverlayFactory factory, OverlayEyes eyes, std::size_t ring_capacity = 2);
 
   const std::string& name() const override { return name_; }
   const std::string& fed_by() const override { return fed_by_; }
@@ -55,7 +66,7 @@ class OverlayBranch final : public SideBranch {
   std::int64_t published() const { return published_; }
   std::size_t dropped() const { return ring_.dropped(); }
   std::int64_t drawn() const { return drawn_.load(); }
-  // Every draw's timing so far (call after the run).
+  // Every draw's timing so far (both eyes' in a stereo run; call after the run).
   std::vector<OverlayTiming> timings() const;
 
  private:
@@ -64,12 +75,20 @@ class OverlayBranch final : public SideBranch {
     std::shared_ptr<const io::Registration> registration;
     std::int64_t frame = -1;
   };
+  struct Eye {
+    OverlayDraw draw;
+    std::shared_ptr<stages::overlay::Compositor> compositor;
+    stages::overlay::OverlayLayer layer;  // drawn, not yet offered
+  };
+
+  // The eyes' drawings, through the lenses at the registered pose.
+  void BuildEyes(const Eigen::Isometry3d& T_C_S);
 
   std::string name_, fed_by_ = "simulate";
   int index_;
   OverlayFactory factory_;
-  OverlayDraw draw_;
-  std::shared_ptr<stages::overlay::Compositor> compositor_;
+  OverlayEyes eyes_;
+  std::vector<Eye> drawing_;  // left, then right in a stereo run; empty until the first geometry
   SpscRing<Geometry> ring_;
   std::int64_t published_ = 0;
   std::atomic<std::int64_t> drawn_{0};
@@ -86,7 +105,6 @@ struct OverlayPlan {
   std::vector<OverlayFactory> factories;  // one per compositor entry
 };
 
-// @throws dg::Error for an overlay whose assets the scene lacks, or an unreadable asset.
 // The surfaces the overlays draw, read from the scene's assets: the internal
 // meshes, each in its own colour, and the surface mesh with its texture.
 // @throws dg::Error for an unreadable mesh or texture.
@@ -94,21 +112,26 @@ std::vector<stages::overlay::OverlaySurface> InternalMeshSurfaces(const io::Scen
 stages::overlay::OverlaySurface TexturedSurface(const io::Scene::Overlays& assets);
 
 // setup: the simulation the overlays draw (its mesh embeds them).
-OverlayPlan PlanOverlays(const io::Scene& scene, std::shared_ptr<const SimulationSetup> setup,
-                         const io::CameraCalibration& left);
+// @throws dg::Error for an overlay whose assets the scene lacks, or an unreadable asset.
+OverlayPlan PlanOverlays(const io::Scene& scene, std::shared_ptr<const SimulationSetup> setup);
 
-// composite: packet.raw.left + the newest layers -> packet.composite. Stateless.
+// composite: packet.raw.left + the left eye's newest layers -> packet.composite
+// (with packet.layer_age_frames), and in a stereo run packet.raw.right + the
+// right eye's -> packet.composite_right. Into the packet's own images, which
+// the pooled packets keep from frame to frame. Stateless.
 class CompositeAdapter final : public PacketStage {
  public:
-  explicit CompositeAdapter(std::shared_ptr<const stages::overlay::Compositor> compositor)
-      : compositor_(std::move(compositor)) {}
+  // right: null for a left-only run.
+  CompositeAdapter(std::shared_ptr<const stages::overlay::Compositor> left,
+                   std::shared_ptr<const stages::overlay::Compositor> right = nullptr)
+      : left_(std::move(left)), right_(std::move(right)) {}
   const std::string& name() const override { return name_; }
   bool stateful() const override { return false; }
   void Process(FramePacket& packet) override;
 
  private:
   std::string name_ = "composite";
-  std::shared_ptr<const stages::overlay::Compositor> compositor_;
+  std::shared_ptr<const stages::overlay::Compositor> left_, right_;
 };
 
 }  // namespace dg::pipeline

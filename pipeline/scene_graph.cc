@@ -61,7 +61,8 @@ std::unique_ptr<PacketStage> MakeRegisterStage(const io::Scene& scene, const io:
 
 }  // namespace
 
-SceneGraph BuildSceneGraph(const io::Scene& scene, const GraphOptions& options, const FrontEndSettings& settings) {
+SceneGraph BuildSceneGraph(const io::Scene& scene, const GraphOptions& options, const FrontEndSettings& settings,
+                           const OverlaySettings& overlay_settings) {
   SceneGraph built;
   built.calibration = io::ReadStereoCalibration(scene.calibration);
   auto source = std::make_unique<CaptureSource>(CaptureOptions(scene.video), scene.video.rectified);
@@ -95,19 +96,22 @@ SceneGraph BuildSceneGraph(const io::Scene& scene, const GraphOptions& options, 
       stages.push_back(MakeRegisterStage(with_defaults, built.calibration, settings));
     }
   }
-  std::shared_ptr<stages::overlay::Compositor> compositor;
+  OverlayEyes eyes{built.calibration, nullptr, nullptr};
   if (scene.simulation) {
     built.simulation = LoadSimulationSetup(scene);
-    OverlayPlan overlays = PlanOverlays(scene, built.simulation, built.calibration.left);
-    if (!overlays.factories.empty()) compositor = std::make_shared<stages::overlay::Compositor>(overlays.compositor);
+    OverlayPlan overlays = PlanOverlays(scene, built.simulation);
+    if (!overlays.factories.empty()) {
+      eyes.left = std::make_shared<stages::overlay::Compositor>(overlays.compositor);
+      if (overlay_settings.right_eye) eyes.right = std::make_shared<stages::overlay::Compositor>(overlays.compositor);
+    }
     for (size_t k = 0; k < overlays.factories.size(); ++k) {
       built.overlays.push_back(std::make_shared<OverlayBranch>(overlays.compositor.layers[k].name, static_cast<int>(k),
-                                                               std::move(overlays.factories[k]), compositor));
+                                                               std::move(overlays.factories[k]), eyes));
     }
     stages.push_back(std::make_unique<ConstraintAdapter>(built.simulation, built.given_registration));
     stages.push_back(std::make_unique<FemAdapter>(built.simulation, built.overlays));
   }
-  if (compositor) stages.push_back(std::make_unique<CompositeAdapter>(compositor));
+  if (eyes.left) stages.push_back(std::make_unique<CompositeAdapter>(eyes.left, eyes.right));
   built.graph = std::make_unique<StageGraph>(std::move(source), std::move(stages), options,
                                              std::vector<std::shared_ptr<SideBranch>>(built.overlays.begin(),
                                                                                       built.overlays.end()));

@@ -17,6 +17,13 @@ struct FrontEndSettings {
   double near_m = 0.03, far_m = 0.30;
 };
 
+// What the scene does not say about the overlays.
+struct OverlaySettings {
+  // Draw and compose the right eye too (packet.composite_right), for a
+  // side-by-side stereo video; without it the run draws the left eye alone.
+  bool right_eye = false;
+};
+
 struct SceneGraph {
   std::unique_ptr<StageGraph> graph;
   // The scene's calibration with the rectification the graph applies (the
@@ -35,12 +42,13 @@ struct SceneGraph {
 // with a simulation, constraint mapping and the FEM step, preceded by
 // registration unless the scene gives a registration file (a scene may also
 // ask for registration alone); with a simulation and overlays, the overlays'
-// side branches and the composite stage.
+// side branches and the composite stage (each eye's, with overlays.right_eye).
 // @throws dg::Error for unreadable inputs, a calibration of another image
 // size than the video, a rectified recording whose calibration has no
 // rectification (P1, P2), a depth range that OptionsForDepthRange refuses,
 // registration without the scan's fiducials or their first-frame pixels, or
 // a simulation the scene's mesh or motion cannot run.
-SceneGraph BuildSceneGraph(const io::Scene& scene, const GraphOptions& options, const FrontEndSettings& settings = {});
+SceneGraph BuildSceneGraph(const io::Scene& scene, const GraphOptions& options, const FrontEndSettings& settings = {},
+                           const OverlaySettings& overlays = {});
 
 }  // namespace dg::pipeline

@@ -1,10 +1,14 @@
 // An overlay four times slower than the video, as a side branch of a graph
 // paced to the video clock: the frames and the geometry producer keep their
 // pace (every frame reaches the sink, composed with an ever older layer), what the overlay skips is
-// counted, and the geometry held at once stays bounded by the ring.
+// counted, and the geometry held at once stays bounded by the ring. A stereo
+// branch draws each eye through its own lens into its own composite, in the
+// pooled packets' own images; a left-only one draws the left eye alone.
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <map>
+#include <mutex>
 #include <thread>
 
 #include <catch2/catch.hpp>
@@ -14,6 +18,7 @@
 #include "pipeline/overlay_stages.h"
 #include "pipeline/stage_graph.h"
 #include "stages/fem_stage.h"
+#include "tests/stages/overlay/overlay_fixtures.h"
 
 namespace dg::pipeline {
 namespace {
@@ -33,6 +38,8 @@ class BlankSource final : public PacketSource {
     packet.t_s = packet.index / fps();
     packet.raw.left.create(kSize, CV_8UC3);
     packet.raw.left.setTo(cv::Scalar(40, 60, 180));
+    packet.raw.right.create(kSize, CV_8UC3);
+    packet.raw.right.setTo(cv::Scalar(90, 30, 20));
     return true;
   }
   bool Skip() override { return next_ < kFrames && ++next_; }
@@ -47,7 +54,12 @@ class BlankSource final : public PacketSource {
 // Stands in for the FEM stage: a new geometry per frame, handed to the overlay.
 class GeometryStage final : public PacketStage {
  public:
-  explicit GeometryStage(std::shared_ptr<OverlayBranch> overlay) : overlay_(std::move(overlay)) {}
+  GeometryStage(std::shared_ptr<OverlayBranch> overlay, const Eigen::Isometry3d& T_C_S = Eigen::Isometry3d::Identity())
+      : overlay_(std::move(overlay)) {
+    auto registration = std::make_shared<io::Registration>();
+    registration->T_C_S = T_C_S.matrix();
+    registration_ = std::move(registration);
+  }
   const std::string& name() const override { return name_; }
   bool stateful() const override { return true; }
   void Process(FramePacket& packet) override {
@@ -67,12 +79,23 @@ class GeometryStage final : public PacketStage {
  private:
   std::string name_ = "simulate";
   std::shared_ptr<OverlayBranch> overlay_;
-  std::shared_ptr<const io::Registration> registration_ = std::make_shared<io::Registration>();
+  std::shared_ptr<const io::Registration> registration_;
 };
+
+// A 160 x 120 stereo pair: the right camera of another focal length, turned
+// and 5 mm to the side.
+io::StereoCalibration StereoPair() {
+  io::StereoCalibration stereo;
+  stereo.left = stages::overlay::testing::PinholeCalibration(kSize.width, kSize.height, 100);
+  stereo.right = stages::overlay::testing::PinholeCalibration(kSize.width, kSize.height, 110);
+  stereo.R = Eigen::AngleAxisd(0.05, Eigen::Vector3d::UnitY()).toRotationMatrix();
+  stereo.T_m = Eigen::Vector3d(-0.005, 0, 0);
+  return stereo;
+}
 
 // An overlay that takes four frame periods per layer.
 OverlayFactory SlowOverlay() {
-  return [](const Eigen::Isometry3d&) {
+  return [](const stages::overlay::LensView&) {
     return [](const Eigen::Matrix3Xd&, std::int64_t frame) {
       std::this_thread::sleep_for(std::chrono::milliseconds(133));
       stages::overlay::OverlayLayer layer;
@@ -102,7 +125,8 @@ TEST_CASE("overlay branch: a slow overlay holds back neither the frames nor the 
   options.layers = {{"slow", stages::overlay::BlendMode::kAlpha}};
   auto compositor = std::make_shared<stages::overlay::Compositor>(options);
   const std::size_t ring_capacity = 2;
-  auto overlay = std::make_shared<OverlayBranch>("slow", 0, SlowOverlay(), compositor, ring_capacity);
+  auto overlay =
+      std::make_shared<OverlayBranch>("slow", 0, SlowOverlay(), OverlayEyes{StereoPair(), compositor, nullptr}, ring_capacity);
   std::vector<std::unique_ptr<PacketStage>> stages;
   stages.push_back(std::make_unique<GeometryStage>(overlay));
   stages.push_back(std::make_unique<CompositeAdapter>(compositor));
@@ -130,6 +154,119 @@ TEST_CASE("overlay branch: a slow overlay holds back neither the frames nor the 
   // Geometry held at once: the packets in flight, the ring's slots and the one being drawn.
   REQUIRE(most_live_geometries.load() <= GraphOptions{}.max_in_flight + static_cast<int>(ring_capacity) + 1);
   REQUIRE(live_geometries.load() == 0);  // all let go after the run
+}
+
+namespace {
+
+// Every lens an overlay was built with; each drawing an opaque layer in its
+// camera's colour: blue through the left camera (f = 100), red through the right.
+struct LensLog {
+  std::mutex mutex;
+  std::vector<stages::overlay::LensView> views;
+};
+
+OverlayFactory EyeColouredOverlay(std::shared_ptr<LensLog> log) {
+  return [log](const stages::overlay::LensView& view) {
+    {
+      std::lock_guard lock(log->mutex);
+      log->views.push_back(view);
+    }
+    const cv::Scalar bgra = view.camera().fx() == 100 ? cv::Scalar(1, 0, 0, 1) : cv::Scalar(0, 0, 1, 1);
+    return [bgra](const Eigen::Matrix3Xd&, std::int64_t frame) {
+      return stages::overlay::OverlayLayer{cv::Mat(kSize, CV_32FC4, bgra), frame};
+    };
+  };
+}
+
+// Per packet (the pool's objects, by address): the composites' buffers, which must never change.
+class BufferSink final : public GraphSink {
+ public:
+  using Buffers = std::pair<const std::uint8_t*, const std::uint8_t*>;  // left, right composite
+  void Consume(const FramePacket& packet) override {
+    ++frames;
+    const Buffers now(packet.composite.data, packet.composite_right.data);
+    const auto [at, first] = buffers.try_emplace(&packet, now);
+    moved += !first && at->second != now;
+    if (!packet.composite_right.empty()) {
+      left_pixels.push_back(packet.composite.at<cv::Vec3b>(60, 80));
+      right_pixels.push_back(packet.composite_right.at<cv::Vec3b>(60, 80));
+    }
+  }
+  void RecordTimings(std::span<const StageTiming>) override {}
+  void RecordDrop(std::int64_t, std::int64_t) override {}
+  int frames = 0, moved = 0;
+  std::map<const FramePacket*, Buffers> buffers;
+  std::vector<cv::Vec3b> left_pixels, right_pixels;
+};
+
+struct EyeGraph {
+  std::unique_ptr<StageGraph> graph;
+  std::shared_ptr<LensLog> lenses = std::make_shared<LensLog>();
+};
+
+// The branch, its geometry feeder and the composite stage, as BuildSceneGraph joins them.
+EyeGraph MakeEyeGraph(bool stereo, const Eigen::Isometry3d& T_C_S) {
+  stages::overlay::CompositorOptions options;
+  options.layers = {{"eye", stages::overlay::BlendMode::kAlpha}};
+  OverlayEyes eyes{StereoPair(), std::make_shared<stages::overlay::Compositor>(options), nullptr};
+  if (stereo) eyes.right = std::make_shared<stages::overlay::Compositor>(options);
+  EyeGraph built;
+  auto overlay = std::make_shared<OverlayBranch>("eye", 0, EyeColouredOverlay(built.lenses), eyes);
+  std::vector<std::unique_ptr<PacketStage>> stages;
+  stages.push_back(std::make_unique<GeometryStage>(overlay, T_C_S));
+  stages.push_back(std::make_unique<CompositeAdapter>(eyes.left, eyes.right));
+  built.graph = std::make_unique<StageGraph>(std::make_unique<BlankSource>(), std::move(stages), GraphOptions{},
+                                             std::vector<std::shared_ptr<SideBranch>>{overlay});
+  return built;
+}
+
+}  // namespace
+
+TEST_CASE("overlay branch: a stereo run draws each eye through its own lens, into the packets' own images",
+          "[pipeline][integration]") {
+  tbb::global_control parallelism(tbb::global_control::max_allowed_parallelism, 2);
+  const Eigen::Isometry3d T_C_S = Eigen::Translation3d(0.002, -0.001, 0.06) * Eigen::AngleAxisd(0.2, Eigen::Vector3d::UnitX());
+  const io::StereoCalibration stereo = StereoPair();
+
+  SECTION("inline, frame by frame: each eye's composite shows its own eye's layer from the first frame on") {
+    EyeGraph stereo_graph = MakeEyeGraph(true, T_C_S);
+    BufferSink sink;
+    REQUIRE(stereo_graph.graph->RunInline(sink).complete);
+    REQUIRE(sink.frames == kFrames);
+    REQUIRE(sink.moved == 0);  // the one packet's images, reused every frame
+    // Built once per eye: the left camera at T_C_S, the right camera at T_R_S = [R | T] T_C_S.
+    const std::vector<stages::overlay::LensView>& views = stereo_graph.lenses->views;
+    REQUIRE(views.size() == 2);
+    REQUIRE(views[0].camera().fx() == 100);
+    REQUIRE(views[0].T_C_S().isApprox(T_C_S, 1e-15));
+    REQUIRE(views[1].camera().fx() == 110);
+    const Eigen::Vector3d X_S(0.01, 0.02, -0.03);
+    const Eigen::Vector3d X_R = stereo.R * (T_C_S * X_S) + stereo.T_m;
+    REQUIRE((views[1].T_C_S() * X_S - X_R).norm() < 1e-15);
+    REQUIRE(sink.right_pixels.size() == static_cast<size_t>(kFrames));
+    for (int j = 0; j < kFrames; ++j) {
+      REQUIRE(sink.left_pixels[j] == cv::Vec3b(255, 0, 0));
+      REQUIRE(sink.right_pixels[j] == cv::Vec3b(0, 0, 255));
+    }
+  }
+  SECTION("in the graph: every pooled packet keeps its composites' buffers") {
+    EyeGraph stereo_graph = MakeEyeGraph(true, T_C_S);
+    BufferSink sink;
+    REQUIRE(stereo_graph.graph->Run(sink).complete);
+    REQUIRE(sink.frames == kFrames);
+    REQUIRE(sink.buffers.size() < static_cast<size_t>(kFrames));  // packets were reused
+    REQUIRE(sink.moved == 0);
+    for (const auto& [packet, buffers] : sink.buffers) REQUIRE(buffers.second != nullptr);
+  }
+  SECTION("left only: the right eye is neither drawn nor composed") {
+    EyeGraph left_graph = MakeEyeGraph(false, T_C_S);
+    BufferSink sink;
+    REQUIRE(left_graph.graph->RunInline(sink).complete);
+    REQUIRE(left_graph.lenses->views.size() == 1);
+    REQUIRE(left_graph.lenses->views[0].camera().fx() == 100);
+    REQUIRE(sink.right_pixels.empty());
+    for (const auto& [packet, buffers] : sink.buffers) REQUIRE(buffers.second == nullptr);
+  }
 }
 
 }  // namespace dg::pipeline
