@@ -1,0 +1,110 @@
+#include "tools/eval/runtime_plot.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "sim/error.h"
+#include "tools/bench/bench_json.h"
+
+namespace dg::tools {
+namespace {
+
+const cv::Scalar kInk(40, 40, 40), kGrid(225, 225, 225), kDominated(150, 150, 150), kFront(14, 127, 255),
+    kRecommended(44, 160, 44);
+
+void Text(cv::Mat& canvas, const std::string& text, cv::Point at, double scale, const cv::Scalar& colour) {
+  cv::putText(canvas, text, at, cv::FONT_HERSHEY_SIMPLEX, scale, colour, 1, cv::LINE_AA);
+}
+
+}  // namespace
+
+void WriteErrorRuntimePlot(const RuntimeResult& result, const std::string& png_path) {
+  std::vector<const PointResult*> ran;
+  for (const PointResult& p : result.points) {
+    if (p.ran && p.simulating_realtime_factor > 0) ran.push_back(&p);
+  }
+  if (ran.empty()) throw Error("no point has run yet: nothing to plot", png_path, "run the sweep's points first");
+
+  // x: log10 of the real-time factor, always showing 1.0x; y: internal RMS from 0.
+  double x_lo = 1.0, x_hi = 1.0, y_hi = 0;
+  for (const PointResult* p : ran) {
+    x_lo = std::min(x_lo, p->simulating_realtime_factor);
+    x_hi = std::max(x_hi, p->simulating_realtime_factor);
+    y_hi = std::max(y_hi, p->errors.internal_rms_mm);
+  }
+  const double log_lo = std::log10(x_lo) - 0.1, log_hi = std::log10(x_hi) + 0.1;
+  y_hi = y_hi > 0 ? 1.15 * y_hi : 1.0;
+
+  const cv::Size size(1200, 700);
+  const int left = 90, right = 40, top = 50, bottom = 70;
+  const double plot_w = size.width - left - right, plot_h = size.height - top - bottom;
+  cv::Mat canvas(size, CV_8UC3, cv::Scalar(255, 255, 255));
+  const auto at = [&](double factor, double error_mm) {
+    return cv::Point(left + static_cast<int>((std::log10(factor) - log_lo) / (log_hi - log_lo) * plot_w),
+                     top + static_cast<int>((1 - error_mm / y_hi) * plot_h));
+  };
+
+  // Ticks at 1, 2 and 5 per decade; y in steps of a round fraction of the range.
+  for (int decade = static_cast<int>(std::floor(log_lo)); decade <= static_cast<int>(std::ceil(log_hi)); ++decade) {
+    for (double mantissa : {1.0, 2.0, 5.0}) {
+      const double x = mantissa * std::pow(10.0, decade);
+      if (std::log10(x) < log_lo || std::log10(x) > log_hi) continue;
+      cv::line(canvas, at(x, 0), at(x, y_hi), kGrid, 1);
+      Text(canvas, Printed("%gx", x), at(x, 0) + cv::Point(-12, 22), 0.45, kInk);
+    }
+  }
+  const double y_step = std::pow(10.0, std::floor(std::log10(y_hi / 5)));
+  const double y_tick = y_hi / y_step > 25 ? 5 * y_step : y_hi / y_step > 10 ? 2 * y_step : y_step;
+  for (double y = 0; y <= y_hi; y += y_tick) {
+    cv::line(canvas, at(std::pow(10.0, log_lo), y), at(std::pow(10.0, log_hi), y), kGrid, 1);
+    Text(canvas, Printed("%g", y), at(std::pow(10.0, log_lo), y) + cv::Point(-50, 5), 0.45, kInk);
+  }
+  cv::rectangle(canvas, at(std::pow(10.0, log_lo), y_hi), at(std::pow(10.0, log_hi), 0), kInk, 1);
+  Text(canvas, "real-time factor while simulating (video s per wall s, log scale)",
+       {left + static_cast<int>(plot_w / 2) - 250, size.height - 20}, 0.55, kInk);
+  Text(canvas, "internal error, RMS (mm): " + result.scene_name, {left - 70, top - 20}, 0.55, kInk);
+
+  // Real time: a dashed vertical line.
+  for (double y = 0; y < y_hi; y += y_hi / 40) {
+    cv::line(canvas, at(1.0, y), at(1.0, std::min(y_hi, y + y_hi / 80)), kInk, 2, cv::LINE_AA);
+  }
+  Text(canvas, "real time (1.0x)", at(1.0, y_hi) + cv::Point(6, 18), 0.5, kInk);
+
+  // The Pareto front, joined from the slowest to the fastest.
+  std::vector<const PointResult*> front;
+  for (const PointResult* p : ran) {
+    if (p->pareto) front.push_back(p);
+  }
+  std::sort(front.begin(), front.end(), [](const PointResult* a, const PointResult* b) {
+    return a->simulating_realtime_factor < b->simulating_realtime_factor;
+  });
+  std::vector<cv::Point> line;
+  for (const PointResult* p : front) line.push_back(at(p->simulating_realtime_factor, p->errors.internal_rms_mm));
+  cv::polylines(canvas, line, false, kFront, 2, cv::LINE_AA);
+
+  for (const PointResult* p : ran) {
+    const cv::Point c = at(p->simulating_realtime_factor, p->errors.internal_rms_mm);
+    cv::circle(canvas, c, 6, p->pareto ? kFront : kDominated, cv::FILLED, cv::LINE_AA);
+    if (result.recommended && &result.points[*result.recommended] == p) {
+      cv::circle(canvas, c, 12, kRecommended, 2, cv::LINE_AA);
+    }
+    Text(canvas, p->plan.point.Name(), c + cv::Point(9, -7), 0.4, p->pareto ? kInk : kDominated);
+  }
+
+  const cv::Point key(size.width - right - 300, top + 20);
+  cv::circle(canvas, key, 6, kFront, cv::FILLED, cv::LINE_AA);
+  Text(canvas, "Pareto front (non-dominated)", key + cv::Point(14, 5), 0.5, kInk);
+  cv::circle(canvas, key + cv::Point(0, 24), 6, kDominated, cv::FILLED, cv::LINE_AA);
+  Text(canvas, "dominated", key + cv::Point(14, 29), 0.5, kInk);
+  cv::circle(canvas, key + cv::Point(0, 48), 12, kRecommended, 2, cv::LINE_AA);
+  Text(canvas, "recommended for real time, 2 threads", key + cv::Point(14, 53), 0.5, kInk);
+
+  if (!cv::imwrite(png_path, canvas)) {
+    throw Error("cannot write the plot", png_path, "check the directory exists and is writable");
+  }
+}
+
+}  // namespace dg::tools

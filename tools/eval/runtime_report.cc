@@ -1,0 +1,191 @@
+#include "tools/eval/runtime_report.h"
+
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+
+#include "sim/error.h"
+#include "sim/tled_solver.h"
+#include "tools/bench/bench_json.h"
+#include "tools/eval/runtime_plot.h"
+#include "tools/json_text.h"
+#include "tools/machine_info.h"
+
+namespace dg::tools {
+namespace {
+
+namespace fs = std::filesystem;
+
+// What every point shares because the graph fixes it (see runtime_sweep.h).
+constexpr const char* kPrecision = "float";
+constexpr int kTargetFeatures = 500;
+
+std::string Status(const PointResult& p) {
+  if (p.plan.refused) {
+    return Printed("refused by the guard (dt > %.2f x dt_cr %.3f ms)", sim::SolverOptions{}.stability_safety,
+                   p.plan.dt_critical_s * 1e3);
+  }
+  if (!p.error.empty()) return "failed: " + p.error;
+  return p.ran ? "ran" : "not run yet";
+}
+
+// The stages of every run, in the order of their first appearance.
+std::vector<std::string> StageNames(const RuntimeResult& result) {
+  std::vector<std::string> names;
+  for (const PointResult& p : result.points) {
+    for (const pipeline::StageStatistics& s : p.stages) {
+      if (std::find(names.begin(), names.end(), s.name) == names.end()) names.push_back(s.name);
+    }
+  }
+  return names;
+}
+
+double StageMedianMs(const PointResult& p, const std::string& stage) {
+  for (const pipeline::StageStatistics& s : p.stages) {
+    if (s.name == stage) return s.median_ms;
+  }
+  return 0;
+}
+
+std::string CsvQuoted(const std::string& text) {
+  std::string quoted = "\"";
+  for (char c : text) quoted += c == '"' ? std::string("\"\"") : std::string(1, c);
+  return quoted + "\"";
+}
+
+void WriteText(const std::string& path, const std::string& text) {
+  std::ofstream out(path);
+  out << text;
+  if (!out) throw Error("cannot write the report", path, "check the directory is writable");
+}
+
+}  // namespace
+
+std::string RecommendationText(const RuntimeResult& result) {
+  if (!result.recommended) {
+    double fastest = 0;
+    for (const PointResult& p : result.points) {
+      if (p.ran && p.plan.point.threads == 2) fastest = std::max(fastest, p.simulating_realtime_factor);
+    }
+    return Printed("No configuration kept up with real time on two threads here (the fastest simulated at %.2fx): "
+                   "for real time on two cores, coarsen the mesh or lengthen the step beyond this sweep.",
+                   fastest);
+  }
+  const PointResult& p = result.points[*result.recommended];
+  return Printed("For real time on two cores, pick %s: %d tetrahedra, dt %.2f ms, %s, %d target features, "
+                 "2 threads, the most accurate point that keeps up (internal RMS %.3f mm, surface RMS %.3f mm, "
+                 "%.2fx real time while simulating).",
+                 p.plan.point.Name().c_str(), p.plan.tets, p.plan.point.dt_s * 1e3, kPrecision, kTargetFeatures,
+                 p.errors.internal_rms_mm, p.errors.surface_rms_mm, p.simulating_realtime_factor);
+}
+
+std::string WriteRuntimeReport(const RuntimeResult& result, const std::string& out_dir) {
+  fs::create_directories(out_dir);
+  const std::vector<std::string> stages = StageNames(result);
+  double load_min = 1e9, load_max = 0;
+  for (const PointResult& p : result.points) {
+    if (!p.ran) continue;
+    load_min = std::min(load_min, p.load_average);
+    load_max = std::max(load_max, p.load_average);
+  }
+  const MachineInfo machine = ReadMachineInfo();
+
+  std::string md = "# dynaguide eval runtime: error against run time\n\n";
+  md += "Scene: " + result.scene_name + ". Every point is one `dynaguide run` of the whole graph (registered from "
+        "the video, combined mode, the scene's overlays, offline policy, no video file), run one at a time on " +
+        machine.cpu_model + " (" + std::to_string(machine.logical_cores) + " logical cores; 1-minute load average " +
+        Printed("%.1f to %.1f", load_min > load_max ? 0.0 : load_min, load_max) +
+        " when the points started: timings compare only between points measured under the same load).\n\n";
+  md += "Design: one factor at a time around the baseline (the phantom's own mesh, dt 0.2 ms, 2 threads), plus a "
+        "few combinations toward real time; not a full factorial. Fixed in every point, because the graph offers "
+        "no other choice yet: the FEM kernel in " + std::string(kPrecision) + ", the tracker's " +
+        std::to_string(kTargetFeatures) + " target features. A time step above the guard's limit is refused, not "
+        "run (the run's coupled simulation cannot substep).\n\n";
+  md += Printed("Errors over the first %d simulated frames of every run (the protocol's window, up to 3 cardiac "
+                "cycles), mm. Real time: video seconds per wall second, over the whole run and over the simulated "
+                "frames only (the registration window's frames do not simulate); the Pareto front and the "
+                "recommendation use internal RMS against the simulating factor.\n\n",
+                result.window_frames);
+
+  md += "| point | tets | dt (ms) | threads | surface avg | max | RMS | internal avg | max | RMS | real time, run | "
+        "real time, simulating | Pareto |\n|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|:---:|\n";
+  std::string csv = "point,tets,nodes,dt_ms,threads,precision,target_features,dt_critical_ms,status,surface_avg_mm,"
+                    "surface_max_mm,surface_rms_mm,internal_avg_mm,internal_max_mm,internal_rms_mm,realtime_factor,"
+                    "simulating_realtime_factor,pareto,recommended,load_average";
+  for (const std::string& stage : stages) csv += "," + stage + "_median_ms";
+  csv += "\n";
+  for (size_t k = 0; k < result.points.size(); ++k) {
+    const PointResult& p = result.points[k];
+    const ErrorFigures& e = p.errors;
+    const bool recommended = result.recommended == k;
+    md += "| " + p.plan.point.Name() + (recommended ? " (recommended)" : "") + " | " + std::to_string(p.plan.tets) +
+          " | " + Printed("%.2f", p.plan.point.dt_s * 1e3) + " | " + std::to_string(p.plan.point.threads) + " | ";
+    if (p.ran) {
+      md += Printed("%.3f | %.3f | %.3f | %.3f | %.3f | %.3f | %.2f | %.2f | %s |\n", e.surface_avg_mm,
+                    e.surface_max_mm, e.surface_rms_mm, e.internal_avg_mm, e.internal_max_mm, e.internal_rms_mm,
+                    p.realtime_factor, p.simulating_realtime_factor, p.pareto ? "**yes**" : "");
+    } else {
+      md += Status(p) + " | | | | | | | | |\n";
+    }
+    csv += p.plan.point.Name() + "," + std::to_string(p.plan.tets) + "," + std::to_string(p.plan.nodes) + "," +
+           Printed("%.4f,%d,%s,%d,%.6f,", p.plan.point.dt_s * 1e3, p.plan.point.threads, kPrecision, kTargetFeatures,
+                   p.plan.dt_critical_s * 1e3) +
+           CsvQuoted(Status(p)) +
+           Printed(",%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%d,%d,%.2f", e.surface_avg_mm, e.surface_max_mm,
+                   e.surface_rms_mm, e.internal_avg_mm, e.internal_max_mm, e.internal_rms_mm, p.realtime_factor,
+                   p.simulating_realtime_factor, p.pareto ? 1 : 0, recommended ? 1 : 0, p.load_average);
+    for (const std::string& stage : stages) csv += Printed(",%.4f", StageMedianMs(p, stage));
+    csv += "\n";
+  }
+
+  md += "\n## Per-stage median (ms per frame)\n\n| point |";
+  for (const std::string& stage : stages) md += " " + stage + " |";
+  md += "\n|---|";
+  for (size_t s = 0; s < stages.size(); ++s) md += "---:|";
+  md += "\n";
+  for (const PointResult& p : result.points) {
+    if (!p.ran) continue;
+    md += "| " + p.plan.point.Name() + " |";
+    for (const std::string& stage : stages) md += Printed(" %.2f |", StageMedianMs(p, stage));
+    md += "\n";
+  }
+  md += "\n## Recommendation\n\n" + RecommendationText(result) + "\n\n";
+  md += "Files: runtime.csv (every figure), error_vs_runtime.png (the Pareto front joined, real time marked), "
+        "runs/<point>/run.h5 and point.yaml.\n";
+
+  // After --emit-jobs and before its jobs ran, the table lists the points without a plot.
+  if (std::any_of(result.points.begin(), result.points.end(),
+                  [](const PointResult& p) { return p.ran && p.simulating_realtime_factor > 0; })) {
+    WriteErrorRuntimePlot(result, out_dir + "/error_vs_runtime.png");
+  }
+  WriteText(out_dir + "/report.md", md);
+  WriteText(out_dir + "/runtime.csv", csv);
+  return md;
+}
+
+void WriteRuntimeJson(const RuntimeResult& result, const std::string& path) {
+  std::string json = "{\n  \"scene\": " + JsonQuoted(result.scene_name) +
+                     ", \"window_frames\": " + std::to_string(result.window_frames) +
+                     ",\n  \"recommendation\": " + JsonQuoted(RecommendationText(result)) + ",\n  \"points\": [\n";
+  for (size_t k = 0; k < result.points.size(); ++k) {
+    const PointResult& p = result.points[k];
+    const ErrorFigures& e = p.errors;
+    json += Printed("    {\"name\": %s, \"tets\": %d, \"dt_ms\": %.6g, \"threads\": %d, \"precision\": %s, "
+                    "\"target_features\": %d, \"status\": %s, \"surface_avg_mm\": %.6g, \"surface_max_mm\": %.6g, "
+                    "\"surface_rms_mm\": %.6g, \"internal_avg_mm\": %.6g, \"internal_max_mm\": %.6g, "
+                    "\"internal_rms_mm\": %.6g, \"realtime_factor\": %.6g, \"simulating_realtime_factor\": %.6g, "
+                    "\"pareto\": %s, \"recommended\": %s}%s\n",
+                    JsonQuoted(p.plan.point.Name()).c_str(), p.plan.tets, p.plan.point.dt_s * 1e3,
+                    p.plan.point.threads, JsonQuoted(kPrecision).c_str(), kTargetFeatures,
+                    JsonQuoted(Status(p)).c_str(), e.surface_avg_mm, e.surface_max_mm, e.surface_rms_mm,
+                    e.internal_avg_mm, e.internal_max_mm, e.internal_rms_mm, p.realtime_factor,
+                    p.simulating_realtime_factor, p.pareto ? "true" : "false",
+                    result.recommended == k ? "true" : "false", k + 1 < result.points.size() ? "," : "");
+  }
+  json += "  ]\n}\n";
+  std::ofstream out(path);
+  out << json;
+  if (!out) throw Error("cannot write the JSON", path, "check the directory exists and is writable");
+}
+
+}  // namespace dg::tools
