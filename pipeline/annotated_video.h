@@ -15,19 +15,34 @@
 
 namespace dg::pipeline {
 
-// The video a person watches after a run: the left frame (with the overlays
-// composed over it, when the run has them), with
-// the tracked features drawn (corners green, MSER regions orange) and the
-// frame's number, time and track count. Drawing happens in the caller (the
-// graph's sink); encoding on a thread of its own, fed through a bounded
-// single-producer/single-consumer ring, so a slow encoder never holds the
-// graph: under the realtime policy a frame that finds the ring full is
-// dropped and counted; offline the sink waits, so the video is complete.
+// How a run's pictures (its annotated video and snapshots) show the stereo
+// pair: the left frame alone (W x H), or the left and right frames side by
+// side (2W x H), each with its eye's overlays when the run composes them.
+enum class VideoLayout { kLeft, kSideBySide };
+
+// The size of a picture of frames of size `eye` in `layout`.
+cv::Size LayoutSize(cv::Size eye, VideoLayout layout);
+
+// The packet's picture in `layout` into *picture (its buffer reused when it
+// has the size already): each eye's composite, or its captured frame where
+// there is none (no overlays, or a left-only run's right eye).
+void ArrangePicture(const FramePacket& packet, VideoLayout layout, cv::Mat* picture);
+
+// The video a person watches after a run: the packet's picture in the run's
+// layout, with the tracked features drawn in each eye shown (corners green,
+// MSER regions orange) and the frame's number, time and track count. Drawing
+// happens in the caller (the graph's sink); encoding on a thread of its own,
+// fed through a bounded single-producer/single-consumer ring, so a slow
+// encoder never holds the graph: under the realtime policy a frame that finds
+// the ring full is dropped and counted; offline the sink waits, so the video
+// is complete.
 // MJPEG in AVI: every player and OpenCV opens it.
 class AnnotatedVideo {
  public:
   // @throws dg::Error when the file cannot be opened for writing.
-  AnnotatedVideo(const std::string& path, double fps, cv::Size size, Policy policy, int ring_frames = 8);
+  // eye_size: one camera's frame size (the video is LayoutSize(eye_size, layout)).
+  AnnotatedVideo(const std::string& path, double fps, cv::Size eye_size, VideoLayout layout, Policy policy,
+                 int ring_frames = 8);
   ~AnnotatedVideo();  // Close()s, logging instead of throwing
   AnnotatedVideo(const AnnotatedVideo&) = delete;
   AnnotatedVideo& operator=(const AnnotatedVideo&) = delete;
@@ -44,6 +59,7 @@ class AnnotatedVideo {
   void Encode();
 
   std::string path_;
+  VideoLayout layout_;
   Policy policy_;
   cv::VideoWriter writer_;
   SpscRing<cv::Mat> ring_;

@@ -2,7 +2,8 @@
 // reads back through the HDF5 C API (not the writer's code) with the
 // documented datasets, row counts and attributes; a run stopped by a failing
 // stage leaves a readable log marked incomplete; the report recomputes the
-// run's summary from the saved log.
+// run's summary from the saved log. With --video-layout side_by_side the video
+// and the snapshots show both eyes, each with its own eye's overlays.
 #include <filesystem>
 #include <fstream>
 #include <vector>
@@ -39,6 +40,13 @@ std::int64_t CountFrames(const std::string& video_path) {
   return frames;
 }
 
+cv::Mat VideoFrame(const std::string& video_path, int frame) {
+  cv::VideoCapture video(video_path);
+  cv::Mat image;
+  for (int j = 0; j <= frame; ++j) REQUIRE(video.read(image));
+  return image;
+}
+
 }  // namespace
 
 TEST_CASE("run: the tiny phantom end to end, and its report", "[tools][integration]") {
@@ -52,6 +60,7 @@ TEST_CASE("run: the tiny phantom end to end, and its report", "[tools][integrati
   REQUIRE(outcome.statistics.frames == frames);
   REQUIRE(outcome.statistics.complete);
   REQUIRE(CountFrames(outcome.video_path) == frames);
+  REQUIRE(cv::VideoCapture(outcome.video_path).get(cv::CAP_PROP_FRAME_WIDTH) == 160);  // the left frame alone
 
   const hid_t file = H5Fopen(outcome.log_path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
   REQUIRE(file >= 0);
@@ -121,6 +130,40 @@ TEST_CASE("run: the tiny phantom end to end, and its report", "[tools][integrati
     CHECK(image.cols == 1200);
     CHECK(image.rows == 600);
   }
+}
+
+// --video-layout side_by_side: the video read back through OpenCV is both
+// eyes side by side (2W x H), every frame; a snapshot (a lossless PNG) from
+// before the registration, when no overlay has drawn yet, is the captured
+// left frame beside the captured right one, to the pixel (composing no
+// layers reproduces the frame exactly). Where each eye's overlays land is the
+// overlay tests' (stages/overlay, pipeline/overlay_branch): in an offline run
+// on the tiny phantom they join the video at a rate that depends on the machine.
+TEST_CASE("run: side by side, the video and the snapshots show both eyes", "[tools][integration]") {
+  RunOptions options;
+  options.scene = TinyPhantomDir() + "/scene.yaml";
+  options.out_dir = TinyPhantomDir() + "/run_side_by_side";
+  options.threads = 2;
+  options.progress = false;
+  options.video_layout = pipeline::VideoLayout::kSideBySide;
+  const int snapshot = 5;  // registered on frame 19
+  options.snapshots = {snapshot};
+  const RunOutcome outcome = RunScene(options);
+  const cv::Size eye(160, 120);  // the tiny preset's
+  cv::VideoCapture video(outcome.video_path);
+  REQUIRE(video.get(cv::CAP_PROP_FRAME_WIDTH) == 2 * eye.width);
+  REQUIRE(video.get(cv::CAP_PROP_FRAME_HEIGHT) == eye.height);
+  REQUIRE(CountFrames(outcome.video_path) == 30);
+
+  char name[64];
+  std::snprintf(name, sizeof name, "/composite_%05d.png", snapshot);
+  const cv::Mat picture = cv::imread(options.out_dir + name);
+  REQUIRE(picture.size() == cv::Size(2 * eye.width, eye.height));
+  const cv::Mat left = VideoFrame(TinyPhantomDir() + "/video/left.avi", snapshot);
+  const cv::Mat right = VideoFrame(TinyPhantomDir() + "/video/right.avi", snapshot);
+  REQUIRE(cv::norm(left, right, cv::NORM_L1) > eye.area());  // the eyes' frames differ
+  REQUIRE(cv::norm(picture(cv::Rect({0, 0}, eye)), left, cv::NORM_INF) == 0);
+  REQUIRE(cv::norm(picture(cv::Rect({eye.width, 0}, eye)), right, cv::NORM_INF) == 0);
 }
 
 // The recording as image sequences whose eighth left image has another size:

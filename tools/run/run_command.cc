@@ -14,6 +14,7 @@ namespace {
 struct RunArguments {
   RunOptions options;
   std::string policy = "offline";
+  std::string video_layout = "left";
   std::string frames;
   bool print_graph = false;
   bool quiet = false;
@@ -37,6 +38,8 @@ void RunRunCommand(RunArguments& args) {
   if (!args.frames.empty()) ParseFrameRange(args.frames, &options.graph);
   options.progress = !args.quiet;
   options.video = !args.no_video;
+  options.video_layout =
+      args.video_layout == "side_by_side" ? pipeline::VideoLayout::kSideBySide : pipeline::VideoLayout::kLeft;
   if (args.print_graph) {
     std::fputs(DescribeRunGraph(options).c_str(), stdout);
     return;
@@ -75,8 +78,13 @@ void AddRunCommand(CLI::App& app) {
       ->capture_default_str();
   command->add_flag("--print-graph", args->print_graph, "Print the graph's nodes and edges and exit");
   command->add_flag("--no-video", args->no_video, "Do not write the annotated video");
+  command->add_option("--video-layout", args->video_layout,
+                      "left (the left frame, W x H) | side_by_side (left and right frames, 2W x H, each with its "
+                      "eye's overlays: the right eye's are drawn only then); for the video and the snapshots")
+      ->check(CLI::IsMember({"left", "side_by_side"}))
+      ->capture_default_str();
   command->add_option("--snapshots", args->options.snapshots,
-                      "Frames written as PNG, the overlays composed over the left frame (e.g. 60,80)")
+                      "Frames written as PNG, the overlays composed over the frame in the video's layout (e.g. 60,80)")
       ->delimiter(',');
   command->add_flag("--quiet", args->quiet, "No progress lines");
   command->callback([args] { RunRunCommand(*args); });

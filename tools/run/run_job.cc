@@ -39,6 +39,12 @@ std::string MachineText(int threads) {
          std::to_string(threads) + " used), " + machine.simd + ", " + machine.compiler;
 }
 
+pipeline::SceneGraph BuildRunGraph(const io::Scene& scene, const RunOptions& options) {
+  pipeline::OverlaySettings overlays;
+  overlays.right_eye = options.video_layout == pipeline::VideoLayout::kSideBySide;
+  return pipeline::BuildSceneGraph(scene, options.graph, options.front_end, overlays);
+}
+
 // Frames the run will take from the source, for progress: the range, cut by the recording's length.
 std::int64_t FramesInRange(const pipeline::GraphOptions& graph, int recording_frames) {
   const std::int64_t end = graph.end_frame >= 0 ? std::min<std::int64_t>(graph.end_frame, recording_frames)
@@ -50,14 +56,14 @@ std::int64_t FramesInRange(const pipeline::GraphOptions& graph, int recording_fr
 
 std::string DescribeRunGraph(const RunOptions& options) {
   const io::Scene scene = io::ReadScene(ScenePath(options));
-  return pipeline::BuildSceneGraph(scene, options.graph, options.front_end).graph->Describe();
+  return BuildRunGraph(scene, options).graph->Describe();
 }
 
 RunOutcome RunScene(const RunOptions& options) {
   const int threads = options.threads > 0 ? options.threads : tbb::info::default_concurrency();
   tbb::global_control parallelism(tbb::global_control::max_allowed_parallelism, threads);
   const io::Scene scene = io::ReadScene(ScenePath(options));
-  pipeline::SceneGraph built = pipeline::BuildSceneGraph(scene, options.graph, options.front_end);
+  pipeline::SceneGraph built = BuildRunGraph(scene, options);
   const pipeline::PacketSource& source = built.graph->source();
 
   std::error_code error;
@@ -88,7 +94,7 @@ RunOutcome RunScene(const RunOptions& options) {
   if (options.video) {
     outcome.video_path = (fs::path(options.out_dir) / "annotated.avi").string();
     const cv::Size size(built.calibration.left.width, built.calibration.left.height);
-    video.emplace(outcome.video_path, source.fps(), size, options.graph.policy);
+    video.emplace(outcome.video_path, source.fps(), size, options.video_layout, options.graph.policy);
     consumers.push_back([&video](const pipeline::FramePacket& packet) { video->Add(packet); });
   }
   if (!options.snapshots.empty()) {
@@ -97,7 +103,9 @@ RunOutcome RunScene(const RunOptions& options) {
       char name[64];
       std::snprintf(name, sizeof name, "composite_%05lld.png", static_cast<long long>(packet.index));
       const std::string path = (fs::path(options.out_dir) / name).string();
-      if (!cv::imwrite(path, packet.composite.empty() ? packet.raw.left : packet.composite)) {
+      cv::Mat picture;
+      pipeline::ArrangePicture(packet, options.video_layout, &picture);
+      if (!cv::imwrite(path, picture)) {
         throw Error("cannot write the snapshot", path, "check the output directory is writable");
       }
     });

@@ -4,6 +4,7 @@
 #include <string>
 #include <vector>
 
+#include "pipeline/annotated_video.h"
 #include "pipeline/run_statistics.h"
 #include "pipeline/scene_graph.h"
 #include "pipeline/stage_graph.h"
@@ -17,7 +18,11 @@ struct RunOptions {
   pipeline::GraphOptions graph;     // policy, frames in flight, frame range
   pipeline::FrontEndSettings front_end;
   bool video = true;     // write the annotated video
-  std::vector<std::int64_t> snapshots;  // frames written as PNG (composite_<frame>.png: the overlaid left frame)
+  // The annotated video's and the snapshots' layout; side by side also draws
+  // and composes the right eye's overlays (a left-only run does not).
+  pipeline::VideoLayout video_layout = pipeline::VideoLayout::kLeft;
+  // Frames written as PNG (composite_<frame>.png: the overlaid frame, in video_layout).
+  std::vector<std::int64_t> snapshots;
   bool progress = true;  // progress lines on stderr
 };
 
