@@ -6,11 +6,9 @@ CaptureSource::CaptureSource(const stages::CaptureStage::Options& options, bool 
     : capture_(options), rectified_input_(rectified_input) {}
 
 bool CaptureSource::Read(FramePacket& packet) {
-  std::optional<stages::StereoFrame> frame = capture_.Next();
-  if (!frame) return false;
-  packet.index = frame->index;
-  packet.t_s = frame->t_s;
-  packet.raw = std::move(*frame);
+  if (!capture_.Read(&packet.raw)) return false;  // into the pooled packet's own images
+  packet.index = packet.raw.index;
+  packet.t_s = packet.raw.t_s;
   // Grey before rectification: the tracker needs grey, and remapping one channel is a third of the work.
   stages::ConvertToGrey(packet.raw.left, packet.left_grey);
   stages::ConvertToGrey(packet.raw.right, packet.right_grey);
@@ -18,14 +16,14 @@ bool CaptureSource::Read(FramePacket& packet) {
   return true;
 }
 
-bool CaptureSource::Skip() { return capture_.Next().has_value(); }
+bool CaptureSource::Skip() { return capture_.Read(&skipped_); }
 
 void RectifyAdapter::Process(FramePacket& packet) {
   rectify_->Process({packet.index, packet.t_s, packet.left_grey, packet.right_grey}, &packet.rectified);
 }
 
 void TrackAdapter::Process(FramePacket& packet) {
-  packet.tracks = tracker_.Process(packet.rectified.left, packet.rectified.right);
+  tracker_.Process(packet.rectified.left, packet.rectified.right, &packet.tracks);
 }
 
 }  // namespace dg::pipeline

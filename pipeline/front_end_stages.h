@@ -29,6 +29,7 @@ class CaptureSource final : public PacketSource {
  private:
   std::string name_ = "capture";
   stages::CaptureStage capture_;
+  stages::StereoFrame skipped_;  // where skipped frames are read, reused
   bool rectified_input_;
 };
 

@@ -1,5 +1,6 @@
 #include "pipeline/simulation_stages.h"
 
+#include <atomic>
 #include <cmath>
 
 #include "io/gmsh_reader.h"
@@ -93,6 +94,18 @@ void ConstraintAdapter::Process(FramePacket& packet) {
   packet.targets = mapper_->Process(packet.tracks.points);
 }
 
+std::shared_ptr<stages::FemFrameOutput> FemAdapter::FreeOutput() {
+  for (const std::shared_ptr<stages::FemFrameOutput>& output : outputs_) {
+    if (output.use_count() == 1) {
+      // Pairs with the release of the last other owner's reference, so its
+      // reads of the output happen before this frame writes over it.
+      std::atomic_thread_fence(std::memory_order_acquire);
+      return output;
+    }
+  }
+  return outputs_.emplace_back(std::make_shared<stages::FemFrameOutput>());
+}
+
 void FemAdapter::Process(FramePacket& packet) {
   if (!packet.registration) return;  // the simulation starts at the first registered frame
   if (!fem_) {
@@ -110,8 +123,9 @@ void FemAdapter::Process(FramePacket& packet) {
     Logger("simulate").info("simulation starts at frame {} ({} mode, dt {} ms, critical dt {:.3f} ms)", packet.index,
                             setup_->options.mode, 1e3 * options.dt_s, 1e3 * fem_->stability().dt_critical_s);
   }
-  packet.simulation = std::make_shared<const stages::FemFrameOutput>(
-      fem_->Process(static_cast<int>(packet.index - first_frame_), packet.targets));
+  std::shared_ptr<stages::FemFrameOutput> output = FreeOutput();
+  fem_->Process(static_cast<int>(packet.index - first_frame_), packet.targets, output.get());
+  packet.simulation = std::move(output);
   for (const auto& overlay : overlays_) overlay->Publish(packet);
 }
 

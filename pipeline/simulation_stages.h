@@ -101,8 +101,14 @@ class FemAdapter final : public PacketStage {
   std::string name_ = "simulate";
   std::shared_ptr<const SimulationSetup> setup_;
   std::vector<std::shared_ptr<OverlayBranch>> overlays_;
+  // An output no packet or overlay holds any more, else a new one.
+  std::shared_ptr<stages::FemFrameOutput> FreeOutput();
+
   std::unique_ptr<stages::FemStage> fem_;
   std::int64_t first_frame_ = 0;
+  // The outputs handed out so far (packets and overlays share them; a frame
+  // reuses one that only this pool holds): as many as are ever alive at once.
+  std::vector<std::shared_ptr<stages::FemFrameOutput>> outputs_;
 };
 
 }  // namespace dg::pipeline

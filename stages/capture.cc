@@ -87,27 +87,40 @@ double CaptureStage::FrameTime(std::int64_t index, const std::optional<double>& 
   return last_t_s_;
 }
 
-std::optional<StereoFrame> CaptureStage::Next() {
-  if (next_index_ >= frame_count_) return std::nullopt;
+bool CaptureStage::Read(StereoFrame* frame) {
+  if (next_index_ >= frame_count_) return false;
   std::optional<double> container_t_s, unused;
-  std::optional<cv::Mat> left, right;
+  bool read = false;
   if (right_) {
-    // Two independent readers: decoding (FFV1, about 20 ms per 640x480 eye) is
-    // most of capture's time, so both eyes are decoded at once.
-    tbb::parallel_invoke([&] { left = left_->Read(&container_t_s); }, [&] { right = right_->Read(&unused); });
-  } else if ((left = left_->Read(&container_t_s))) {
-    right = (*left)(cv::Rect(size_.width, 0, size_.width, size_.height));
-    left = (*left)(cv::Rect(0, 0, size_.width, size_.height));
+    // Two independent readers: decoding a compressed recording is most of
+    // capture's time, so both eyes are decoded at once.
+    bool right_read = false;
+    tbb::parallel_invoke([&] { read = left_->Read(frame->left, &container_t_s); },
+                         [&] { right_read = right_->Read(frame->right, &unused); });
+    read = read && right_read;
+  } else if ((read = left_->Read(side_by_side_, &container_t_s))) {
+    // Copies, not views: each eye's buffer stays the frame's own to reuse.
+    OwnBuffer(frame->left);
+    OwnBuffer(frame->right);
+    side_by_side_(cv::Rect(0, 0, size_.width, size_.height)).copyTo(frame->left);
+    side_by_side_(cv::Rect(size_.width, 0, size_.width, size_.height)).copyTo(frame->right);
   }
-  if (!left || !right) {  // the container promised more frames than it holds
+  if (!read) {  // the container promised more frames than it holds
     truncation_ = "the input ended after " + std::to_string(next_index_) + " of the " +
                   std::to_string(frame_count_) + " frames its container states";
     Logger("stages").warn("capture: {}", truncation_);
     frame_count_ = static_cast<int>(next_index_);
-    return std::nullopt;
+    return false;
   }
-  StereoFrame frame{next_index_, FrameTime(next_index_, container_t_s), std::move(*left), std::move(*right)};
+  frame->index = next_index_;
+  frame->t_s = FrameTime(next_index_, container_t_s);
   ++next_index_;
+  return true;
+}
+
+std::optional<StereoFrame> CaptureStage::Next() {
+  StereoFrame frame;
+  if (!Read(&frame)) return std::nullopt;
   return frame;
 }
 

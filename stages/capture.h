@@ -44,8 +44,11 @@ class CaptureStage {
   // inputs of different frame size or frame rate (naming both and their values).
   explicit CaptureStage(const Options& options);
 
-  // The next frame, or std::nullopt after the last.
+  // The next frame into `frame`, reusing its images' buffers (see
+  // FrameSource::Read); false after the last.
   // @throws dg::Error when an image of another size turns up mid-stream.
+  bool Read(StereoFrame* frame);
+  // The next frame in new buffers, or std::nullopt after the last.
   std::optional<StereoFrame> Next();
 
   int frame_count() const { return frame_count_; }  // after any truncation
@@ -63,6 +66,7 @@ class CaptureStage {
   double fps_ = 0;
   cv::Size size_;
   std::string truncation_;
+  cv::Mat side_by_side_;  // the whole frame of side-by-side input, reused
   std::int64_t next_index_ = 0;
   double first_container_t_s_ = 0;
   double last_t_s_ = -1;

@@ -43,6 +43,12 @@ Eigen::Matrix3Xd FemStage::first_displacement_S_m() const {
 }
 
 FemFrameOutput FemStage::Process(int frame, const NodeTargets& targets) {
+  FemFrameOutput output;
+  Process(frame, targets, &output);
+  return output;
+}
+
+void FemStage::Process(int frame, const NodeTargets& targets, FemFrameOutput* into) {
   if (frame <= last_frame_) {
     throw Error("frame " + std::to_string(frame) + " comes after frame " + std::to_string(last_frame_),
                 "FEM stage", "feed frames in increasing order (a serial node behind a sequencer)");
@@ -62,8 +68,10 @@ FemFrameOutput FemStage::Process(int frame, const NodeTargets& targets) {
   simulation.SetConstrainedNodes(constrain ? targets.nodes : std::vector<int>{});
   simulation.Advance(static_cast<int>(substeps), constrain ? targets.displacement_S_m : std::vector<double>{});
 
-  FemFrameOutput output;
+  FemFrameOutput& output = *into;
   FemFrameRecord& record = output.record;
+  record = FemFrameRecord{.sampled_nodes_S_m = std::move(record.sampled_nodes_S_m)};  // keeps its capacity
+  record.sampled_nodes_S_m.clear();
   record.frame = frame;
   record.step = simulation.steps_taken();
   record.time_s = simulation.time_s();
@@ -91,7 +99,6 @@ FemFrameOutput FemStage::Process(int frame, const NodeTargets& targets) {
   }
   if (!targets.nodes.empty()) record.constraint_residual_rms_mm = std::sqrt(sum_sq / targets.nodes.size()) * 1e3;
   record.dt_over_dt_critical = options_.dt_s / simulation.stability().dt_critical_s;
-  return output;
 }
 
 std::vector<int> SampledNodeIds(int nodes, int samples) {

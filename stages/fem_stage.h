@@ -67,6 +67,8 @@ class FemStage {
   // @pre frames increase. @throws dg::Error for a frame earlier than the last
   // one, a target on a fixed node, or a simulation failure (inversion, blow-up).
   FemFrameOutput Process(int frame, const NodeTargets& targets);
+  // The same into `output`, reusing its storage.
+  void Process(int frame, const NodeTargets& targets, FemFrameOutput* output);
 
   const std::vector<int>& sampled_nodes() const { return sampled_nodes_; }
   const sim::StabilityReport& stability() const { return simulation_->stability(); }

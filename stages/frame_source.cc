@@ -37,16 +37,16 @@ class VideoSource : public FrameSource {
     }
   }
 
-  std::optional<cv::Mat> Read(std::optional<double>* container_t_s) override {
-    cv::Mat frame;  // a new buffer per frame: the previous one may still be in use downstream
-    if (!capture_.read(frame) || frame.empty()) return std::nullopt;
+  bool Read(cv::Mat& frame, std::optional<double>* container_t_s) override {
+    OwnBuffer(frame);
+    if (!capture_.read(frame) || frame.empty()) return false;
     if (frame.size() != size_) {
       throw Error("frame of size " + SizeText(frame.size()) + " in a video of size " + SizeText(size_), path_,
                   "re-encode the video at one frame size");
     }
     const double t_ms = capture_.get(cv::CAP_PROP_POS_MSEC);
     *container_t_s = t_ms >= 0 ? std::optional<double>(t_ms * 1e-3) : std::nullopt;
-    return frame;
+    return true;
   }
 
   int frame_count() const override { return frame_count_; }
@@ -69,9 +69,9 @@ class ImageSequenceSource : public FrameSource {
     size_ = first_.size();
   }
 
-  std::optional<cv::Mat> Read(std::optional<double>* container_t_s) override {
+  bool Read(cv::Mat& frame, std::optional<double>* container_t_s) override {
     *container_t_s = std::nullopt;
-    if (next_ == files_.size()) return std::nullopt;
+    if (next_ == files_.size()) return false;
     cv::Mat image = next_ == 0 ? first_ : ReadImage(files_[next_]);
     if (next_ == 0) first_ = cv::Mat();  // handed over: not kept alive by the source
     if (image.size() != size_) {
@@ -80,7 +80,8 @@ class ImageSequenceSource : public FrameSource {
                   files_[next_], "give images of one size");
     }
     ++next_;
-    return image;
+    frame = image;
+    return true;
   }
 
   int frame_count() const override { return static_cast<int>(files_.size()); }
@@ -103,6 +104,12 @@ class ImageSequenceSource : public FrameSource {
 };
 
 }  // namespace
+
+void OwnBuffer(cv::Mat& image) {
+  // The count only falls while this thread holds its own reference, so a
+  // count of one cannot be stale; a stale higher count just costs a buffer.
+  if (image.u && image.u->refcount > 1) image.release();
+}
 
 std::unique_ptr<FrameSource> OpenVideo(const std::string& path) { return std::make_unique<VideoSource>(path); }
 

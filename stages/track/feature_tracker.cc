@@ -40,59 +40,65 @@ FeatureTracker::FeatureTracker(const Options& options, const io::StereoCalibrati
 }
 
 TrackFrame FeatureTracker::Process(const cv::Mat& left_R, const cv::Mat& right_R, TrackTimings* timings) {
+  TrackFrame frame;
+  Process(left_R, right_R, &frame, timings);
+  return frame;
+}
+
+void FeatureTracker::Process(const cv::Mat& left_R, const cv::Mat& right_R, TrackFrame* frame, TrackTimings* timings) {
   TrackTimings spent;
   auto start = std::chrono::steady_clock::now();
-  TrackFrame frame;
-  TemporalTracker::Pyramid pyramid = temporal_.BuildPyramid(left_R);
+  frame->points.clear();
+  frame->detected = frame->lost = 0;
+  temporal_.BuildPyramid(left_R, &current_);
   if (!previous_.empty() && !tracks_.empty()) {
-    std::vector<cv::Point2f> points, moved;
-    for (const Track& t : tracks_) points.push_back(t.uv_R);
-    std::vector<bool> tracked;
-    temporal_.Track(previous_, pyramid, points, &moved, &tracked);
-    std::vector<Track> kept;
+    points_.clear();
+    for (const Track& t : tracks_) points_.push_back(t.uv_R);
+    temporal_.Track(previous_, current_, points_, &moved_, &tracked_);
+    kept_.clear();
     for (size_t i = 0; i < tracks_.size(); ++i) {
-      if (!tracked[i]) continue;
-      kept.push_back(tracks_[i]);
-      kept.back().uv_R = moved[i];
-      ++kept.back().age;
+      if (!tracked_[i]) continue;
+      kept_.push_back(tracks_[i]);
+      kept_.back().uv_R = moved_[i];
+      ++kept_.back().age;
     }
-    frame.lost = static_cast<int>(tracks_.size() - kept.size());
-    tracks_ = std::move(kept);
+    frame->lost = static_cast<int>(tracks_.size() - kept_.size());
+    std::swap(tracks_, kept_);
   }
-  previous_ = std::move(pyramid);
+  std::swap(previous_, current_);
   spent.temporal_ms = Lap(&start);
 
   if (tracks_.size() < options_.redetect_fraction * options_.detector.target_count) {
     std::vector<cv::Point2f> existing;
     for (const Track& t : tracks_) existing.push_back(t.uv_R);
     for (const Feature& f : detector_.Detect(left_R, existing)) tracks_.push_back({next_id_++, f.kind, f.uv_R_px});
-    frame.detected = static_cast<int>(tracks_.size() - existing.size());
+    frame->detected = static_cast<int>(tracks_.size() - existing.size());
   }
   spent.detect_ms = Lap(&start);
 
-  std::vector<cv::Point2f> points;
-  std::vector<float> expected;
+  points_.clear();
+  expected_.clear();
   for (const Track& t : tracks_) {
-    points.push_back(t.uv_R);
-    expected.push_back(t.disparity);
+    points_.push_back(t.uv_R);
+    expected_.push_back(t.disparity);
   }
-  const std::vector<StereoMatch> matches = stereo_.Match(left_R, right_R, points, &expected);
+  const std::vector<StereoMatch> matches = stereo_.Match(left_R, right_R, points_, &expected_);
   spent.stereo_ms = Lap(&start);
-  std::vector<Track> kept;
+  kept_.clear();
   for (size_t i = 0; i < tracks_.size(); ++i) {
     Track& t = tracks_[i];
     const StereoMatch& m = matches[i];
     const bool consistent =
         m.valid && (t.disparity < 0 || std::abs(m.disparity_px - t.disparity) <= options_.max_disparity_change_px);
     if (!consistent) {
-      if (++t.unmatched <= options_.max_unmatched_frames) kept.push_back(t);
-      else ++frame.lost;
+      if (++t.unmatched <= options_.max_unmatched_frames) kept_.push_back(t);
+      else ++frame->lost;
       continue;
     }
     t.unmatched = 0;
     t.disparity = m.disparity_px;
-    kept.push_back(t);
-    TrackedPoint p;
+    kept_.push_back(t);
+    TrackedPoint& p = frame->points.emplace_back();
     p.id = t.id;
     p.kind = t.kind;
     p.uv_left_R_px = Eigen::Vector2d(t.uv_R.x, t.uv_R.y);
@@ -102,13 +108,11 @@ TrackFrame FeatureTracker::Process(const cv::Mat& left_R, const cv::Mat& right_R
     p.xyz_C_m = triangulator_.Triangulate(p.uv_left_R_px, m.disparity_px);
     p.quality = m.score;
     p.age_frames = t.age;
-    frame.points.push_back(p);
   }
-  tracks_ = std::move(kept);
-  frame.tracked = static_cast<int>(tracks_.size());
+  std::swap(tracks_, kept_);
+  frame->tracked = static_cast<int>(tracks_.size());
   spent.triangulate_ms = Lap(&start);
   if (timings) *timings = spent;
-  return frame;
 }
 
 FeatureTracker::Options OptionsForDepthRange(const io::StereoCalibration& rectified, double near_m, double far_m) {

@@ -73,7 +73,8 @@ class FeatureTracker {
   FeatureTracker(const Options& options, const io::StereoCalibration& calibration);
 
   // @pre left_R and right_R are the rectified pair, CV_8UC1, of the same size as every earlier frame.
-  // `timings` (optional) receives the time of each part.
+  // Into `frame`, reusing its storage; `timings` (optional) receives the time of each part.
+  void Process(const cv::Mat& left_R, const cv::Mat& right_R, TrackFrame* frame, TrackTimings* timings = nullptr);
   TrackFrame Process(const cv::Mat& left_R, const cv::Mat& right_R, TrackTimings* timings = nullptr);
 
   const Triangulator& triangulator() const { return triangulator_; }
@@ -92,8 +93,15 @@ class FeatureTracker {
   TemporalTracker temporal_;
   StereoMatcher stereo_;
   Triangulator triangulator_;
-  TemporalTracker::Pyramid previous_;
+  // Two pyramids, swapped each frame: this frame's is built over the one
+  // before the last, so once both have their sizes none is allocated.
+  TemporalTracker::Pyramid previous_, current_;
   std::vector<Track> tracks_;
+  // Per-frame working lists, kept for their capacity.
+  std::vector<Track> kept_;
+  std::vector<cv::Point2f> points_, moved_;
+  std::vector<float> expected_;
+  std::vector<bool> tracked_;
   std::int64_t next_id_ = 0;
 };
 

@@ -20,7 +20,8 @@ FiducialTracker::FiducialTracker(const Options& options, std::vector<cv::Point2f
 }
 
 std::vector<FiducialObservation> FiducialTracker::Process(const cv::Mat& left_R, const cv::Mat& right_R) {
-  TemporalTracker::Pyramid pyramid = temporal_.BuildPyramid(left_R);
+  TemporalTracker::Pyramid pyramid;  // new each frame: the first frame's stays shared with first_
+  temporal_.BuildPyramid(left_R, &pyramid);
   if (first_.empty()) {
     first_ = pyramid;
   } else {

@@ -22,12 +22,10 @@ TemporalTracker::TemporalTracker(const Options& options) : options_(options) {
     throw Error("invalid temporal tracker options: " + error, "TemporalTracker::Options", "correct the option");
 }
 
-TemporalTracker::Pyramid TemporalTracker::BuildPyramid(const cv::Mat& image) const {
+void TemporalTracker::BuildPyramid(const cv::Mat& image, Pyramid* pyramid) const {
   DG_CHECK(image.type() == CV_8UC1);
-  Pyramid pyramid;
-  cv::buildOpticalFlowPyramid(image, pyramid, cv::Size(options_.window_px, options_.window_px),
+  cv::buildOpticalFlowPyramid(image, *pyramid, cv::Size(options_.window_px, options_.window_px),
                               options_.pyramid_levels);
-  return pyramid;
 }
 
 void TemporalTracker::Track(const Pyramid& previous, const Pyramid& next, const std::vector<cv::Point2f>& points,

@@ -34,8 +34,10 @@ class TemporalTracker {
   // @throws dg::Error naming the invalid option.
   explicit TemporalTracker(const Options& options);
 
-  // @pre image is CV_8UC1.
-  Pyramid BuildPyramid(const cv::Mat& image) const;
+  // Into `pyramid`, reusing its images when they have the sizes already (a
+  // tracker alternating two pyramids allocates none per frame).
+  // @pre image is CV_8UC1; no other cv::Mat shares pyramid's images.
+  void BuildPyramid(const cv::Mat& image, Pyramid* pyramid) const;
 
   // Positions of `points` (in `previous`) in `next`; `tracked[i]` is false for
   // points lost or failing the forward-backward check. `initial` (optional,
