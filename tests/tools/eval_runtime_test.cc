@@ -199,6 +199,7 @@ Recomputed Recompute(const std::string& log, int window) {
   double first_end = 0, last_end = 0;
   std::map<int, std::vector<double>> durations;
   for (size_t k = 0; k < t_frame.size(); ++k) {
+    if (t_frame[k] < frame.front() || t_frame[k] > frame.back()) continue;  // the stages' cost while simulating
     durations[static_cast<int>(t_stage[k])].push_back((t_end[k] - t_start[k]) * 1e-6);
     if (t_stage[k] != sink) continue;
     if (t_frame[k] == frame.front()) first_end = t_end[k];

@@ -102,13 +102,13 @@ MeshVariant PhantomMeshVariant(const io::Scene& scene, int target_tets) {
   CheckSameMotion(scene, motion, phases, preset);
 
   const sim::TetMesh mesh = io::MeshTruncatedEllipsoid({spec.semi_axes_m, spec.centre_height_m, target_tets});
-  // Written under temporary names and renamed, so that an interrupted sweep never leaves half a pair to reuse.
-  const std::string partial = ".partial-" + std::to_string(target_tets);
-  io::WriteMsh(mesh, mesh_path.string() + partial, 41);
-  WriteVariantScan(scene, phases, NodeDisplacements(motion, phases, mesh.X_m), mesh.num_nodes(),
-                   scan_path.string() + partial);
-  fs::rename(scan_path.string() + partial, scan_path);
-  fs::rename(mesh_path.string() + partial, mesh_path);
+  // Written under temporary names (keeping the extensions the writers ask
+  // for) and renamed, so that an interrupted sweep never leaves half a pair to reuse.
+  const fs::path partial_mesh = dir / ("partial-" + variant.mesh_file), partial_scan = dir / ("partial-" + variant.scan_file);
+  io::WriteMsh(mesh, partial_mesh.string(), 41);
+  WriteVariantScan(scene, phases, NodeDisplacements(motion, phases, mesh.X_m), mesh.num_nodes(), partial_scan.string());
+  fs::rename(partial_scan, scan_path);
+  fs::rename(partial_mesh, mesh_path);
   variant.tets = mesh.num_tets();
   variant.nodes = mesh.num_nodes();
   return variant;

@@ -39,7 +39,7 @@ void WriteErrorRuntimePlot(const RuntimeResult& result, const std::string& png_p
   y_hi = y_hi > 0 ? 1.15 * y_hi : 1.0;
 
   const cv::Size size(1200, 700);
-  const int left = 90, right = 40, top = 50, bottom = 70;
+  const int left = 90, right = 40, top = 90, bottom = 70;
   const double plot_w = size.width - left - right, plot_h = size.height - top - bottom;
   cv::Mat canvas(size, CV_8UC3, cv::Scalar(255, 255, 255));
   const auto at = [&](double factor, double error_mm) {
@@ -65,13 +65,13 @@ void WriteErrorRuntimePlot(const RuntimeResult& result, const std::string& png_p
   cv::rectangle(canvas, at(std::pow(10.0, log_lo), y_hi), at(std::pow(10.0, log_hi), 0), kInk, 1);
   Text(canvas, "real-time factor while simulating (video s per wall s, log scale)",
        {left + static_cast<int>(plot_w / 2) - 250, size.height - 20}, 0.55, kInk);
-  Text(canvas, "internal error, RMS (mm): " + result.scene_name, {left - 70, top - 20}, 0.55, kInk);
+  Text(canvas, "internal error, RMS (mm): " + result.scene_name, {left - 70, 30}, 0.55, kInk);
 
   // Real time: a dashed vertical line.
   for (double y = 0; y < y_hi; y += y_hi / 40) {
     cv::line(canvas, at(1.0, y), at(1.0, std::min(y_hi, y + y_hi / 80)), kInk, 2, cv::LINE_AA);
   }
-  Text(canvas, "real time (1.0x)", at(1.0, y_hi) + cv::Point(6, 18), 0.5, kInk);
+  Text(canvas, "real time (1.0x)", at(1.0, 0) + cv::Point(8, -12), 0.5, kInk);
 
   // The Pareto front, joined from the slowest to the fastest.
   std::vector<const PointResult*> front;
@@ -94,13 +94,14 @@ void WriteErrorRuntimePlot(const RuntimeResult& result, const std::string& png_p
     Text(canvas, p->plan.point.Name(), c + cv::Point(9, -7), 0.4, p->pareto ? kInk : kDominated);
   }
 
-  const cv::Point key(size.width - right - 300, top + 20);
+  // The key, in one row above the plot.
+  const cv::Point key(left + 10, top - 25);
   cv::circle(canvas, key, 6, kFront, cv::FILLED, cv::LINE_AA);
-  Text(canvas, "Pareto front (non-dominated)", key + cv::Point(14, 5), 0.5, kInk);
-  cv::circle(canvas, key + cv::Point(0, 24), 6, kDominated, cv::FILLED, cv::LINE_AA);
-  Text(canvas, "dominated", key + cv::Point(14, 29), 0.5, kInk);
-  cv::circle(canvas, key + cv::Point(0, 48), 12, kRecommended, 2, cv::LINE_AA);
-  Text(canvas, "recommended for real time, 2 threads", key + cv::Point(14, 53), 0.5, kInk);
+  Text(canvas, "Pareto front (non-dominated), joined", key + cv::Point(14, 5), 0.5, kInk);
+  cv::circle(canvas, key + cv::Point(370, 0), 6, kDominated, cv::FILLED, cv::LINE_AA);
+  Text(canvas, "dominated", key + cv::Point(384, 5), 0.5, kInk);
+  cv::circle(canvas, key + cv::Point(510, 0), 12, kRecommended, 2, cv::LINE_AA);
+  Text(canvas, "recommended for real time on 2 threads", key + cv::Point(530, 5), 0.5, kInk);
 
   if (!cv::imwrite(png_path, canvas)) {
     throw Error("cannot write the plot", png_path, "check the directory exists and is writable");

@@ -138,7 +138,7 @@ std::string WriteRuntimeReport(const RuntimeResult& result, const std::string& o
     csv += "\n";
   }
 
-  md += "\n## Per-stage median (ms per frame)\n\n| point |";
+  md += "\n## Per-stage median over the simulated frames (ms per frame)\n\n| point |";
   for (const std::string& stage : stages) md += " " + stage + " |";
   md += "\n|---|";
   for (size_t s = 0; s < stages.size(); ++s) md += "---:|";

@@ -126,19 +126,25 @@ PointFile ReadPointFile(const std::string& path) {
 }
 
 // The run log's cost: the whole run's and the simulating real-time factors,
-// and each stage's timing statistics.
+// and each stage's timing statistics over the simulated frames (over all
+// frames, the registration window's would make the simulation's median zero).
 void ReadPointCost(const std::string& run_h5, const RunErrors& errors, PointResult* point) {
   const SavedRun saved = ReadSavedRun(run_h5);
   point->realtime_factor = saved.statistics.realtime_factor;
-  point->stages = saved.statistics.stages;
-  if (!errors.frame.empty()) {
-    point->simulating_realtime_factor =
-        SimulatingRealtimeFactor(saved.timings, static_cast<int>(saved.stage_names.size()) - 1, errors.frame.front(),
-                                 errors.frame.back(), errors.fps);
+  if (errors.frame.empty()) return;
+  std::vector<pipeline::StageTiming> simulated;
+  for (const pipeline::StageTiming& t : saved.timings) {
+    if (t.frame >= errors.frame.front() && t.frame <= errors.frame.back()) simulated.push_back(t);
   }
+  point->stages = pipeline::Summarize(simulated, saved.stage_names, 0, 0, errors.fps, true).stages;
+  point->simulating_realtime_factor =
+      SimulatingRealtimeFactor(saved.timings, static_cast<int>(saved.stage_names.size()) - 1, errors.frame.front(),
+                               errors.frame.back(), errors.fps);
 }
 
-std::string Minutes(double seconds) { return Printed("%.1f min", seconds / 60); }
+std::string Duration(double seconds) {
+  return seconds < 120 ? Printed("%.0f s", seconds) : Printed("%.1f min", seconds / 60);
+}
 
 }  // namespace
 
@@ -252,8 +258,8 @@ RuntimeResult RunRuntimeSweep(const RuntimeOptions& options) {
     if (options.progress) {
       const double elapsed_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
       std::fprintf(stderr, "eval runtime: run %ld / %ld, %s (%s elapsed%s)\n", done + 1, runnable,
-                   plan.point.Name().c_str(), Minutes(elapsed_s).c_str(),
-                   done > 0 ? (", about " + Minutes(elapsed_s / done * (runnable - done)) + " to go").c_str() : "");
+                   plan.point.Name().c_str(), Duration(elapsed_s).c_str(),
+                   done > 0 ? (", about " + Duration(elapsed_s / done * (runnable - done)) + " to go").c_str() : "");
     }
     const double load_average = LoadAverage();
     RunOptions run;

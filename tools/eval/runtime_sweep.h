@@ -68,7 +68,7 @@ struct PointResult {
   ErrorFigures errors;
   double realtime_factor = 0;            // the whole run's: video seconds per wall second
   double simulating_realtime_factor = 0;  // over the simulated frames only (see SimulatingRealtimeFactor)
-  std::vector<pipeline::StageStatistics> stages;  // per-stage median (and p95, mean) ms
+  std::vector<pipeline::StageStatistics> stages;  // per stage over the simulated frames: median, p95, mean ms
   double load_average = 0;  // the machine's 1-minute load when the point started
   bool pareto = false;      // non-dominated in (internal RMS error, simulating real-time factor)
 };
