@@ -55,7 +55,7 @@ OverlayFactory VolumeFactory(const std::string& ct_file, std::shared_ptr<const S
   overlay::VolumeOverlay::Options options;
   options.slice_spacing_m = 1e-3;  // 28 frames/s on two cores (dynaguide bench overlay)
   return [=](const overlay::LensView& view) {
-    return DrawWith(std::make_shared<overlay::VolumeOverlay>(options, setup->mesh, *ct,
+    return DrawWith(std::make_shared<overlay::VolumeOverlay>(options, setup->mesh, ct,
                                                              overlay::TransferFunction::CardiacDefault(), view));
   };
 }

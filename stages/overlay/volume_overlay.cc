@@ -65,21 +65,22 @@ std::string VolumeOverlay::Options::Validate() const {
   return {};
 }
 
-VolumeOverlay::VolumeOverlay(const Options& options, const sim::TetMesh& mesh, const io::VolumeI16& ct,
+VolumeOverlay::VolumeOverlay(const Options& options, const sim::TetMesh& mesh, std::shared_ptr<const io::VolumeI16> ct,
                              const TransferFunction& transfer, const LensView& view)
     : options_(CheckedOptions(options)),
       num_nodes_(mesh.num_nodes()),
       tets_(mesh.tets),
-      ct_(ct),
+      ct_(std::move(ct)),
       view_(view),
       ray_length_(view.RayLengthPerDepth()),
       clipper_(view.pinhole(), kGuardBandPx) {
   if (const std::string problem = transfer.Validate(); !problem.empty())
     throw Error("invalid transfer function: " + problem, "volume overlay", "correct the scene's transfer function");
-  if (ct.size.minCoeff() < 2 || ct.values.size() != ct.num_voxels())
-    throw Error("the CT volume has fewer than 2 voxels along an axis or the wrong number of values", "volume overlay",
-                "give the CT phase of the mesh's reference configuration");
-  voxel_nodes_ = ((mesh.X_m.colwise() - ct.origin_m).array().colwise() / ct.spacing_m.array()).matrix().cast<float>();
+  if (!ct_ || ct_->size.minCoeff() < 2 || ct_->values.size() != ct_->num_voxels())
+    throw Error("the CT volume is missing, has fewer than 2 voxels along an axis or the wrong number of values",
+                "volume overlay", "give the CT phase of the mesh's reference configuration");
+  voxel_nodes_ =
+      ((mesh.X_m.colwise() - ct_->origin_m).array().colwise() / ct_->spacing_m.array()).matrix().cast<float>();
   for (int i = 0; i < kLutSize; ++i) {
     const TransferFunction::Point p = transfer.At(static_cast<float>(kLutFirstHu + i));
     lut_[i] = {p.bgr[0], p.bgr[1], p.bgr[2], p.sigma_per_m};
@@ -95,7 +96,8 @@ OverlayLayer VolumeOverlay::Process(const Eigen::Matrix3Xd& nodes_S, std::int64_
                     std::to_string(num_nodes_),
                 "volume overlay, frame " + std::to_string(frame), "pass the simulation mesh's current node positions");
   const render::PinholeCamera& camera = view_.pinhole();
-  OverlayLayer layer{cv::Mat(camera.height, camera.width, CV_32FC4, cv::Scalar::all(0)), frame};
+  OverlayLayer layer{layers_.Take({camera.width, camera.height}), frame};
+  layer.bgra.setTo(cv::Scalar::all(0));
   view_.ToView(nodes_S, &nodes_view_);
   // Slices at the centres of equal intervals over the mesh's depth in front of the near plane.
   const double z_min = std::max(camera.near_m, nodes_view_.row(2).minCoeff());
@@ -187,15 +189,16 @@ void VolumeOverlay::BinTriangles() {
 
 float VolumeOverlay::SampleHu(const Eigen::Vector3f& voxel) const {
   // Trilinear, clamped to the volume (its border voxels continue outwards).
+  const io::VolumeI16& ct = *ct_;
   int index[3];
   float frac[3];
   for (int i = 0; i < 3; ++i) {
-    const float v = std::clamp(voxel[i], 0.0f, static_cast<float>(ct_.size[i] - 1));
-    index[i] = std::min(static_cast<int>(v), ct_.size[i] - 2);
+    const float v = std::clamp(voxel[i], 0.0f, static_cast<float>(ct.size[i] - 1));
+    index[i] = std::min(static_cast<int>(v), ct.size[i] - 2);
     frac[i] = v - static_cast<float>(index[i]);
   }
-  const size_t sx = 1, sy = static_cast<size_t>(ct_.size.x()), sz = sy * ct_.size.y();
-  const std::int16_t* p = ct_.values.data() + ct_.Index(index[0], index[1], index[2]);
+  const size_t sx = 1, sy = static_cast<size_t>(ct.size.x()), sz = sy * ct.size.y();
+  const std::int16_t* p = ct.values.data() + ct.Index(index[0], index[1], index[2]);
   const auto lerp = [](float a, float b, float t) { return a + t * (b - a); };
   const float c00 = lerp(p[0], p[sx], frac[0]), c10 = lerp(p[sy], p[sy + sx], frac[0]);
   const float c01 = lerp(p[sz], p[sz + sx], frac[0]), c11 = lerp(p[sz + sy], p[sz + sy + sx], frac[0]);

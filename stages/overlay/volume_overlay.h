@@ -2,6 +2,7 @@
 
 #include <array>
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -46,10 +47,11 @@ class VolumeOverlay {
     std::string Validate() const;
   };
 
-  // ct: the CT phase whose geometry is the mesh's reference configuration (scan frame).
+  // ct: the CT phase whose geometry is the mesh's reference configuration
+  // (scan frame); shared, not copied: a stereo run draws it once per eye.
   // @throws dg::Error for invalid options or transfer function, or a CT
-  //   smaller than 2 voxels along an axis.
-  VolumeOverlay(const Options& options, const sim::TetMesh& mesh, const io::VolumeI16& ct,
+  //   missing or smaller than 2 voxels along an axis.
+  VolumeOverlay(const Options& options, const sim::TetMesh& mesh, std::shared_ptr<const io::VolumeI16> ct,
                 const TransferFunction& transfer, const LensView& view);
 
   // @throws dg::Error if nodes_S has the wrong number of columns.
@@ -83,7 +85,7 @@ class VolumeOverlay {
   int num_nodes_;
   Eigen::Matrix<int, 4, Eigen::Dynamic> tets_;
   Eigen::Matrix3Xf voxel_nodes_;  // reference node positions in CT voxel coordinates
-  io::VolumeI16 ct_;
+  std::shared_ptr<const io::VolumeI16> ct_;
   std::array<Classified, kLutSize> lut_;
   LensView view_;
   cv::Mat ray_length_;  // per pixel, |ray| / z
@@ -94,6 +96,7 @@ class VolumeOverlay {
   std::vector<std::vector<SliceTriangle>> blocks_;
   std::vector<const SliceTriangle*> ordered_;
   std::vector<std::vector<const SliceTriangle*>> bins_;
+  LayerPool layers_;
   int last_slices_ = 0;
   std::size_t last_triangles_ = 0;
 };

@@ -100,7 +100,8 @@ std::unique_ptr<overlay::SurfaceOverlay> PhantomOverlayScene::MakeTextureOverlay
 std::unique_ptr<overlay::VolumeOverlay> PhantomOverlayScene::MakeVolumeOverlay(
     const overlay::VolumeOverlay::Options& options) const {
   // Phase 0 (end-diastole) is the mesh's reference configuration.
-  const io::VolumeI16 ct = io::ReadMetaImage<std::int16_t>(scene_.preoperative->ct_volumes.front());
+  auto ct =
+      std::make_shared<const io::VolumeI16>(io::ReadMetaImage<std::int16_t>(scene_.preoperative->ct_volumes.front()));
   return std::make_unique<overlay::VolumeOverlay>(options, mesh_, ct, overlay::TransferFunction::CardiacDefault(),
                                                   LeftView());
 }

@@ -5,6 +5,7 @@
 #include "stages/overlay/volume_overlay.h"
 
 #include <cmath>
+#include <memory>
 
 #include <catch2/catch.hpp>
 
@@ -32,6 +33,10 @@ io::VolumeI16 UniformCt(double spacing_m, std::int16_t hu) {
   ct.origin_m = Eigen::Vector3d::Constant(-1.2 * kHalf_m);
   ct.values.assign(ct.num_voxels(), hu);
   return ct;
+}
+
+std::shared_ptr<const io::VolumeI16> Shared(io::VolumeI16 ct) {
+  return std::make_shared<const io::VolumeI16>(std::move(ct));
 }
 
 const Eigen::Isometry3d kT_C_S = Eigen::Translation3d(0.002, -0.001, 0.07) *
@@ -65,7 +70,7 @@ TEST_CASE("volume overlay: a constant-density block is 1 - exp(-sigma L) opaque"
   VolumeOverlay::Options options;
   options.slice_spacing_m = 0.2e-3;
   const sim::TetMesh mesh = CentredBlock();
-  VolumeOverlay overlay(options, mesh, UniformCt(2e-3, 100), transfer, LensView(camera, kT_C_S));
+  VolumeOverlay overlay(options, mesh, Shared(UniformCt(2e-3, 100)), transfer, LensView(camera, kT_C_S));
   const OverlayLayer layer = overlay.Process(mesh.X_m, 3);
   REQUIRE(layer.frame == 3);
   REQUIRE(overlay.last_slices() > 100);
@@ -116,7 +121,7 @@ TEST_CASE("volume overlay: CT features follow the mesh's deformation", "[stages]
       -0.05, 0.9, 0.08,  //
       0.02, 0.0, 1.05;
   const Eigen::Vector3d shift(0.002, 0.001, -0.003);
-  VolumeOverlay overlay({}, mesh, ct, transfer, LensView(camera, kT_C_S));
+  VolumeOverlay overlay({}, mesh, Shared(ct), transfer, LensView(camera, kT_C_S));
   const OverlayLayer layer = overlay.Process((M * mesh.X_m).colwise() + shift, 0);
   double sum = 0;
   Eigen::Vector2d centroid = Eigen::Vector2d::Zero();
@@ -138,17 +143,19 @@ TEST_CASE("volume overlay: bad options, transfer functions and CTs are rejected"
   const sim::TetMesh mesh = CentredBlock();
   TransferFunction transfer;
   transfer.points = {{100, {1, 1, 1}, 5}, {50, {1, 1, 1}, 5}};
-  REQUIRE_THROWS_WITH(VolumeOverlay({}, mesh, UniformCt(2e-3, 0), transfer, view),
+  REQUIRE_THROWS_WITH(VolumeOverlay({}, mesh, Shared(UniformCt(2e-3, 0)), transfer, view),
                       Catch::Contains("does not increase in HU"));
   VolumeOverlay::Options bad;
   bad.slice_spacing_m = 0;
-  REQUIRE_THROWS_WITH(VolumeOverlay(bad, mesh, UniformCt(2e-3, 0), TransferFunction::CardiacDefault(), view),
+  REQUIRE_THROWS_WITH(VolumeOverlay(bad, mesh, Shared(UniformCt(2e-3, 0)), TransferFunction::CardiacDefault(), view),
                       Catch::Contains("slice_spacing_m"));
   io::VolumeI16 flat = UniformCt(2e-3, 0);
   flat.size.z() = 1;
   flat.values.resize(flat.num_voxels());
-  REQUIRE_THROWS_WITH(VolumeOverlay({}, mesh, flat, TransferFunction::CardiacDefault(), view),
+  REQUIRE_THROWS_WITH(VolumeOverlay({}, mesh, Shared(flat), TransferFunction::CardiacDefault(), view),
                       Catch::Contains("fewer than 2 voxels"));
+  REQUIRE_THROWS_WITH(VolumeOverlay({}, mesh, nullptr, TransferFunction::CardiacDefault(), view),
+                      Catch::Contains("missing"));
 }
 
 }  // namespace
