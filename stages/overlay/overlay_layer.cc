@@ -4,22 +4,40 @@
 
 namespace dg::stages::overlay {
 
-OverlayLayer LayerFromRender(const render::Rasterizer& rasterizer, float opacity, std::int64_t frame) {
-  const cv::Mat color = rasterizer.Color();  // over black: already coverage-weighted
-  const cv::Mat ids = rasterizer.ObjectIds();
+cv::Mat LayerPool::Take(cv::Size size) {
+  for (cv::Mat& image : images_) {
+    // Only the pool's own reference left: the last other holder has let go.
+    if (image.u->refcount == 1) {
+      image.create(size, CV_32FC4);
+      return image;
+    }
+  }
+  return images_.emplace_back(size, CV_32FC4);
+}
+
+OverlayLayer LayerFromRender(const render::Rasterizer& rasterizer, float opacity, std::int64_t frame, LayerPool* pool) {
+  const cv::Mat& color = rasterizer.ColorSamples();  // over black: already coverage-weighted
+  const cv::Mat& ids = rasterizer.ObjectIdSamples();
   const int s = rasterizer.supersample();
-  const float sample_weight = opacity / static_cast<float>(s * s);
-  OverlayLayer layer{cv::Mat(color.size(), CV_32FC4), frame};
-  tbb::parallel_for(0, color.rows, [&](int y) {
-    const cv::Vec3f* in = color.ptr<cv::Vec3f>(y);
+  const float inv_count = 1.0f / static_cast<float>(s * s);
+  const float sample_weight = opacity * inv_count;
+  const cv::Size size(rasterizer.camera().width, rasterizer.camera().height);
+  OverlayLayer layer{pool->Take(size), frame};
+  tbb::parallel_for(0, size.height, [&](int y) {
     cv::Vec4f* out = layer.bgra.ptr<cv::Vec4f>(y);
-    for (int x = 0; x < color.cols; ++x) {
+    for (int x = 0; x < size.width; ++x) {
+      cv::Vec3f sum(0, 0, 0);
       int covered = 0;
       for (int dy = 0; dy < s; ++dy) {
+        const cv::Vec3f* in = color.ptr<cv::Vec3f>(y * s + dy) + x * s;
         const int* id = ids.ptr<int>(y * s + dy) + x * s;
-        for (int dx = 0; dx < s; ++dx) covered += id[dx] >= 0;
+        for (int dx = 0; dx < s; ++dx) {
+          sum += in[dx];
+          covered += id[dx] >= 0;
+        }
       }
-      out[x] = cv::Vec4f(opacity * in[x][0], opacity * in[x][1], opacity * in[x][2], sample_weight * covered);
+      const cv::Vec3f mean = sum * inv_count;
+      out[x] = cv::Vec4f(opacity * mean[0], opacity * mean[1], opacity * mean[2], sample_weight * covered);
     }
   });
   return layer;

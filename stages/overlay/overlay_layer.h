@@ -1,6 +1,7 @@
 #pragma once
 
 #include <cstdint>
+#include <vector>
 
 #include <opencv2/core/mat.hpp>
 
@@ -19,10 +20,24 @@ struct OverlayLayer {
   bool empty() const { return bgra.empty(); }
 };
 
-// The rasterizer's image as a layer: colour (drawn over black) and coverage
-// (the fraction of each pixel's samples that anything was drawn on), both
-// times opacity.
+// The images an overlay hands out as layers, each reused once nothing else
+// holds it (the compositor keeps a layer until a newer one replaces it), so
+// an overlay allocates layers only until as many exist as are ever alive at
+// once. One caller at a time.
+class LayerPool {
+ public:
+  // A CV_32FC4 image of `size` that no cv::Mat outside the pool shares;
+  // its pixels are left from earlier use.
+  cv::Mat Take(cv::Size size);
+
+ private:
+  std::vector<cv::Mat> images_;
+};
+
+// The rasterizer's image as a layer from `pool`: colour (drawn over black)
+// and coverage (the fraction of each pixel's samples that anything was drawn
+// on), both times opacity.
 // @pre the rasterizer was cleared to black before drawing.
-OverlayLayer LayerFromRender(const render::Rasterizer& rasterizer, float opacity, std::int64_t frame);
+OverlayLayer LayerFromRender(const render::Rasterizer& rasterizer, float opacity, std::int64_t frame, LayerPool* pool);
 
 }  // namespace dg::stages::overlay

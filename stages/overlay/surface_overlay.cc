@@ -101,7 +101,7 @@ OverlayLayer SurfaceOverlay::Process(const Eigen::Matrix3Xd& nodes_S, std::int64
     }
     rasterizer_.Draw(drawn, material, render::Light{}, static_cast<int>(i));
   }
-  return LayerFromRender(rasterizer_, options_.opacity, frame);
+  return LayerFromRender(rasterizer_, options_.opacity, frame, &layers_);
 }
 
 }  // namespace dg::stages::overlay

@@ -65,6 +65,7 @@ class SurfaceOverlay {
   std::vector<OverlaySurface> surfaces_;
   std::vector<Eigen::Index> first_vertex_;  // of each surface in the embedding
   std::vector<render::TriangleMesh> drawn_;  // per surface, reused every frame
+  LayerPool layers_;
   sim::Embedding embedding_;
   LensView view_;
   render::Rasterizer rasterizer_;

@@ -51,6 +51,9 @@ class Rasterizer {
   cv::Mat Depth() const;
   // CV_32SC1 object ids at the supersampled resolution, -1 where nothing was drawn.
   cv::Mat ObjectIds() const;
+  // The supersampled colour (CV_32FC3) and ids, not copied: valid until the next Clear() or Draw().
+  const cv::Mat& ColorSamples() const { return color_full_; }
+  const cv::Mat& ObjectIdSamples() const { return ids_full_; }
 
   const PinholeCamera& camera() const { return camera_; }
   // The camera of the supersampled buffers: PinholeCamera::Supersampled(s).
