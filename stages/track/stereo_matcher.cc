@@ -11,6 +11,7 @@
 #endif
 
 #include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 
 #include "sim/error.h"
@@ -215,6 +216,7 @@ void SampleAlongX(const std::vector<float>& rows, int x_lo, int width, float ori
 }  // namespace
 
 struct StereoMatcher::Scratch : Buffers {};
+struct StereoMatcher::ScratchPerThread : tbb::enumerable_thread_specific<Scratch> {};
 
 std::string StereoMatcher::Options::Validate() const {
   if (min_disparity_px < 0 || max_disparity_px <= min_disparity_px)
@@ -228,7 +230,8 @@ std::string StereoMatcher::Options::Validate() const {
   return {};
 }
 
-StereoMatcher::StereoMatcher(const Options& options) : options_(options) {
+StereoMatcher::StereoMatcher(const Options& options)
+    : options_(options), scratch_(std::make_shared<ScratchPerThread>()) {
   if (const std::string error = options.Validate(); !error.empty())
     throw Error("invalid stereo matcher options: " + error, "StereoMatcher::Options", "correct the option");
 }
@@ -346,7 +349,6 @@ std::vector<StereoMatch> StereoMatcher::Match(const cv::Mat& left, const cv::Mat
   DG_CHECK(expected_disparity_px == nullptr || expected_disparity_px->size() == uv_left_px.size());
   std::vector<StereoMatch> matches(uv_left_px.size());
   // Points are independent and each writes only its own slot: the result does not depend on the threads.
-  // One set of buffers per task, not per point.
   const auto match_one = [&](std::size_t i, Scratch* scratch) {
     const cv::Point2f& p = uv_left_px[i];
     double lo = options_.min_disparity_px, hi = options_.max_disparity_px;
@@ -368,7 +370,7 @@ std::vector<StereoMatch> StereoMatcher::Match(const cv::Mat& left, const cv::Mat
   };
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, uv_left_px.size()),
                     [&](const tbb::blocked_range<std::size_t>& range) {
-                      Scratch scratch;
+                      Scratch& scratch = scratch_->local();
                       for (std::size_t i = range.begin(); i != range.end(); ++i) match_one(i, &scratch);
                     });
   return matches;

@@ -1,5 +1,6 @@
 #pragma once
 
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -58,7 +59,8 @@ class StereoMatcher {
     bool found = false;
     double disparity = 0, score = 0;
   };
-  struct Scratch;  // one task's buffers, defined in the .cc
+  struct Scratch;           // one thread's buffers, defined in the .cc
+  struct ScratchPerThread;  // tbb::enumerable_thread_specific<Scratch>
   // The best disparity in [d_min, d_max] from `from` at p into `to`, along
   // the row; direction -1 looks left of p (left to right image), +1 right of it.
   Peak SearchRow(const cv::Mat& from, const cv::Mat& to, const cv::Point2f& p, int direction, int d_min, int d_max,
@@ -68,6 +70,10 @@ class StereoMatcher {
               Scratch* scratch) const;
 
   Options options_;
+  // Each thread's buffers, kept from call to call: they grow to the largest
+  // window and range met, and then matching allocates nothing. Shared by
+  // copies: a thread runs one match at a time (no waits inside one).
+  std::shared_ptr<ScratchPerThread> scratch_;
 };
 
 }  // namespace dg::stages
