@@ -83,8 +83,10 @@ SceneGraph BuildSceneGraph(const io::Scene& scene, const GraphOptions& options, 
     built.calibration.rectification = rectify->rectification();
     stages.push_back(std::make_unique<RectifyAdapter>(rectify));
   }
-  stages.push_back(std::make_unique<TrackAdapter>(
-      stages::OptionsForDepthRange(built.calibration, settings.near_m, settings.far_m), built.calibration));
+  stages::FeatureTracker::Options tracking =
+      stages::OptionsForDepthRange(built.calibration, settings.near_m, settings.far_m);
+  tracking.detector.target_count = settings.target_features;
+  stages.push_back(std::make_unique<TrackAdapter>(tracking, built.calibration));
 
   io::Scene with_defaults = scene;  // a simulation is registered over the default window unless the scene says
   if (with_defaults.simulation && !with_defaults.registration) with_defaults.registration.emplace();

@@ -15,6 +15,10 @@ struct FrontEndSettings {
   // The depths searched by stereo matching, for the disparity range: an
   // endoscope sees tissue at a few centimetres.
   double near_m = 0.03, far_m = 0.30;
+  // Tracked features wanted (the detector's target): detection runs when
+  // fewer than 90% are alive, so a target the image cannot hold means
+  // detecting in every frame.
+  int target_features = 500;
 };
 
 // What the scene does not say about the overlays.
