@@ -76,6 +76,10 @@ void AddRunCommand(CLI::App& app) {
       ->capture_default_str();
   command->add_option("--far", args->options.front_end.far_m, "Farthest depth stereo matching searches, metres")
       ->capture_default_str();
+  command->add_option("--features", args->options.front_end.target_features,
+                      "Tracked features wanted (detection tops the tracks up when fewer than 90% are alive)")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
   command->add_flag("--print-graph", args->print_graph, "Print the graph's nodes and edges and exit");
   command->add_flag("--no-video", args->no_video, "Do not write the annotated video");
   command->add_option("--video-layout", args->video_layout,
