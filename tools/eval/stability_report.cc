@@ -69,7 +69,7 @@ std::string Short(const CellResult& c) {
     case CellOutcome::kRefused:
       return "refused";
     case CellOutcome::kSubstepped:
-      return "x" + std::to_string(c.substeps);
+      return Printed("x%d", c.substeps);
     case CellOutcome::kInversion:
       return "**inversion**";
     case CellOutcome::kBlowUp:
@@ -139,7 +139,7 @@ void WriteHeatMap(const StabilityResult& result, const Axes& axes, const std::st
             const CellResult& c = *found->second;
             cv::rectangle(canvas, box, OutcomeColour(c.outcome), cv::FILLED);
             if (c.outcome == CellOutcome::kSubstepped) {
-              Text(canvas, "x" + std::to_string(c.substeps), box.tl() + cv::Point(3, 14), 0.33, {255, 255, 255});
+              Text(canvas, Printed("x%d", c.substeps), box.tl() + cv::Point(3, 14), 0.33, {255, 255, 255});
             }
             cv::rectangle(canvas, box, {255, 255, 255}, 1);
           }
@@ -211,7 +211,7 @@ std::string BisectionCsv(const std::vector<BisectionResult>& bisections) {
 
 std::string CountsTable(const std::vector<CellResult>& cells, const Axes& axes) {
   std::string md = "| motion | guard |";
-  for (CellOutcome o : AllOutcomes()) md += " " + OutcomeName(o) + " |";
+  for (CellOutcome o : AllOutcomes()) md += Printed(" %s |", OutcomeName(o).c_str());
   md += " cells | wall (s) |\n|---|---|";
   for (size_t k = 0; k <= AllOutcomes().size() + 1; ++k) md += "---:|";
   md += "\n";
@@ -231,8 +231,8 @@ std::string CountsTable(const std::vector<CellResult>& cells, const Axes& axes) 
       }
       total_wall += wall;
       md += "| " + motion + " | " + GuardName(guard) + " |";
-      for (CellOutcome o : AllOutcomes()) md += " " + std::to_string(count[o]) + " |";
-      md += " " + std::to_string(n) + " | " + Printed("%.1f", wall) + " |\n";
+      for (CellOutcome o : AllOutcomes()) md += Printed(" %d |", count[o]);
+      md += Printed(" %d | %.1f |\n", n, wall);
     }
   }
   md += "| **all** | |";
@@ -277,7 +277,7 @@ std::string CellTables(const std::vector<CellResult>& cells, const Axes& axes) {
   for (const std::string& motion : axes.motions) {
     for (Guard guard : axes.guards) {
       md += "### " + motion + " motion, guard " + GuardName(guard) + "\n\n| E (Pa) | nu |";
-      for (double dt : axes.dts) md += " " + Ms(dt) + " ms |";
+      for (double dt : axes.dts) md += Printed(" %s ms |", Ms(dt).c_str());
       md += "\n|---:|---:|";
       for (size_t k = 0; k < axes.dts.size(); ++k) md += "---|";
       md += "\n";
@@ -286,7 +286,7 @@ std::string CellTables(const std::vector<CellResult>& cells, const Axes& axes) {
           md += "| " + Modulus(E) + " | " + Printed("%g", nu) + " |";
           for (double dt : axes.dts) {
             const auto found = by_key.find({motion, static_cast<int>(guard), E, nu, dt});
-            md += " " + (found == by_key.end() ? std::string("-") : Short(*found->second)) + " |";
+            md += found == by_key.end() ? std::string(" - |") : Printed(" %s |", Short(*found->second).c_str());
           }
           md += "\n";
         }

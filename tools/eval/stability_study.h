@@ -83,7 +83,7 @@ struct StabilityOptions {
   int threads = 0;                        // cells run in parallel up to this (0: all cores)
   int tets = kDefaultStudyTets;           // the mesh's target element count
   std::string emit_jobs;                  // write one command per cell and bisection here instead of running
-  bool progress = true;                   // a line per finished cell on stderr
+  bool progress = true;                   // progress on stderr (Progress: each tenth when not a terminal)
 };
 
 struct StabilityResult {
