@@ -6,6 +6,7 @@
 
 #include <Eigen/Geometry>
 #include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 
 #include "sim/error.h"
@@ -32,11 +33,16 @@ struct Rasterizer::TileSample {
   float b1, b2;  // perspective-correct barycentrics of vertices 1 and 2
 };
 
+struct Rasterizer::TileScratch : tbb::enumerable_thread_specific<std::vector<TileSample>> {
+  TileScratch() : tbb::enumerable_thread_specific<std::vector<TileSample>>(kTileSize * kTileSize) {}
+};
+
 Rasterizer::Rasterizer(const PinholeCamera& camera, int supersample)
     : camera_(camera),
       full_camera_(camera.Supersampled(supersample)),
       supersample_(supersample),
-      clipper_(full_camera_, kGuardBandPx) {
+      clipper_(full_camera_, kGuardBandPx),
+      tile_samples_(std::make_shared<TileScratch>()) {
   if (const std::string problem = camera.Validate(); !problem.empty())
     throw Error("invalid camera: " + problem, "render::Rasterizer", "pass a calibrated pinhole camera");
   if (supersample < 1 || supersample > 8)
@@ -62,18 +68,18 @@ void Rasterizer::Clear(const Eigen::Vector3f& background_bgr) {
 }
 
 void Rasterizer::Draw(const TriangleMesh& mesh, const Material& material, const Light& light, int object_id) {
-  const std::string where = "render::Rasterizer::Draw, object " + std::to_string(object_id);
+  const auto where = [object_id] { return "render::Rasterizer::Draw, object " + std::to_string(object_id); };
   if (const std::string problem = mesh.Validate(); !problem.empty())
-    throw Error("inconsistent mesh: " + problem, where, "give every vertex a position (and a normal and uv, if any)");
+    throw Error("inconsistent mesh: " + problem, where(), "give every vertex a position (and a normal and uv, if any)");
   if (const std::string problem = material.Validate(); !problem.empty())
-    throw Error("invalid material: " + problem, where, "fix the material");
+    throw Error("invalid material: " + problem, where(), "fix the material");
   if (material.texture != nullptr && mesh.uvs.cols() == 0)
-    throw Error("textured material on a mesh without uvs", where, "give the mesh per-vertex uvs or drop the texture");
+    throw Error("textured material on a mesh without uvs", where(), "give the mesh per-vertex uvs or drop the texture");
 
   SetUpTriangles(mesh);
   BinTriangles();
   tbb::parallel_for(tbb::blocked_range<int>(0, tiles_x_ * tiles_y_), [&](const tbb::blocked_range<int>& range) {
-    std::vector<TileSample> samples(kTileSize * kTileSize);
+    std::vector<TileSample>& samples = tile_samples_->local();
     for (int tile = range.begin(); tile != range.end(); ++tile) {
       if (!bins_[tile].empty()) RenderTile(tile, material, light, object_id, &samples);
     }

@@ -1,5 +1,6 @@
 #pragma once
 
+#include <memory>
 #include <vector>
 
 #include <Eigen/Core>
@@ -62,7 +63,8 @@ class Rasterizer {
 
  private:
   static constexpr int kTileSize = 64;
-  struct TileSample;  // the nearest triangle so far at one sample of a tile
+  struct TileSample;   // the nearest triangle so far at one sample of a tile
+  struct TileScratch;  // each thread's tile of samples
 
   void SetUpTriangles(const TriangleMesh& mesh);
   void BinTriangles();
@@ -84,6 +86,10 @@ class Rasterizer {
   // threads), and per tile the triangles touching it, in submission order.
   std::vector<std::vector<ScreenTriangle>> blocks_;
   std::vector<std::vector<const ScreenTriangle*>> bins_;
+  // A tile's samples per thread (kTileSize^2 of them, 64 kB), kept from
+  // Draw to Draw instead of made per task. Shared by copies: a thread renders
+  // one tile at a time (no waits inside one).
+  std::shared_ptr<TileScratch> tile_samples_;
 };
 
 }  // namespace dg::stages::render
