@@ -9,7 +9,6 @@
 #include "tools/bench/bench_json.h"
 #include "tools/eval/runtime_plot.h"
 #include "tools/json_text.h"
-#include "tools/machine_info.h"
 
 namespace dg::tools {
 namespace {
@@ -82,20 +81,31 @@ std::string RecommendationText(const RuntimeResult& result) {
 std::string WriteRuntimeReport(const RuntimeResult& result, const std::string& out_dir) {
   fs::create_directories(out_dir);
   const std::vector<std::string> stages = StageNames(result);
+  std::vector<std::string> machines;  // as the logs name them, without the threads each run used
   double load_min = 1e9, load_max = 0;
   for (const PointResult& p : result.points) {
     if (!p.ran) continue;
+    std::string machine = p.machine;
+    if (const size_t open = machine.find(" ("), close = machine.find(')', open); close != std::string::npos) {
+      machine.erase(open, close - open + 1);
+    }
+    if (std::find(machines.begin(), machines.end(), machine) == machines.end()) machines.push_back(machine);
+    if (p.load_average <= 0) continue;
     load_min = std::min(load_min, p.load_average);
     load_max = std::max(load_max, p.load_average);
   }
-  const MachineInfo machine = ReadMachineInfo();
+  std::string machine_text;
+  for (const std::string& m : machines) machine_text += (machine_text.empty() ? "" : "; ") + m;
 
   std::string md = "# dynaguide eval runtime: error against run time\n\n";
   md += "Scene: " + result.scene_name + ". Every point is one `dynaguide run` of the whole graph (registered from "
-        "the video, combined mode, the scene's overlays, offline policy, no video file), run one at a time on " +
-        machine.cpu_model + " (" + std::to_string(machine.logical_cores) + " logical cores; 1-minute load average " +
-        Printed("%.1f to %.1f", load_min > load_max ? 0.0 : load_min, load_max) +
-        " when the points started: timings compare only between points measured under the same load).\n\n";
+        "the video, combined mode, the scene's overlays, offline policy, no video file), one point at a time, on " +
+        (machine_text.empty() ? std::string("no machine yet (no point has run)") : machine_text) + ". " +
+        (load_min <= load_max ? Printed("The 1-minute load average was %.1f to %.1f when the points started: ", load_min,
+                                        load_max) +
+                                    std::string("timings compare only between points measured under the same load.")
+                              : std::string("The points ran elsewhere (--emit-jobs): their load is not recorded.")) +
+        "\n\n";
   md += "Design: one factor at a time around the baseline (the phantom's own mesh, dt 0.2 ms, 2 threads), plus a "
         "few combinations toward real time; not a full factorial. Fixed in every point, because the graph offers "
         "no other choice yet: the FEM kernel in " + std::string(kPrecision) + ", the tracker's " +
@@ -138,16 +148,18 @@ std::string WriteRuntimeReport(const RuntimeResult& result, const std::string& o
     csv += "\n";
   }
 
-  md += "\n## Per-stage median over the simulated frames (ms per frame)\n\n| point |";
-  for (const std::string& stage : stages) md += " " + stage + " |";
-  md += "\n|---|";
-  for (size_t s = 0; s < stages.size(); ++s) md += "---:|";
-  md += "\n";
-  for (const PointResult& p : result.points) {
-    if (!p.ran) continue;
-    md += "| " + p.plan.point.Name() + " |";
-    for (const std::string& stage : stages) md += Printed(" %.2f |", StageMedianMs(p, stage));
+  if (!stages.empty()) {
+    md += "\n## Per-stage median over the simulated frames (ms per frame)\n\n| point |";
+    for (const std::string& stage : stages) md += " " + stage + " |";
+    md += "\n|---|";
+    for (size_t s = 0; s < stages.size(); ++s) md += "---:|";
     md += "\n";
+    for (const PointResult& p : result.points) {
+      if (!p.ran) continue;
+      md += "| " + p.plan.point.Name() + " |";
+      for (const std::string& stage : stages) md += Printed(" %.2f |", StageMedianMs(p, stage));
+      md += "\n";
+    }
   }
   md += "\n## Recommendation\n\n" + RecommendationText(result) + "\n\n";
   md += "Files: runtime.csv (every figure), error_vs_runtime.png (the Pareto front joined, real time marked), "
