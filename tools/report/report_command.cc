@@ -6,6 +6,7 @@
 
 #include "tools/commands.h"
 #include "tools/eval/protocol.h"
+#include "tools/eval/stability_report.h"
 #include "tools/report/saved_run.h"
 #include "tools/report/timing_plot.h"
 
@@ -19,6 +20,12 @@ struct ReportArguments {
 };
 
 void RunReportCommand(const ReportArguments& args) {
+  if (std::filesystem::is_directory(args.log_path + "/cells")) {
+    // A `dynaguide eval stability` directory (or its --emit-jobs run elsewhere): its report from the cell logs.
+    std::fputs(WriteStabilityReport(ReadStabilityLogs(args.log_path), args.log_path).c_str(), stdout);
+    std::printf("\nreport, CSV and heat map in %s\n", args.log_path.c_str());
+    return;
+  }
   if (std::filesystem::is_directory(args.log_path)) {
     // A directory of evaluation runs (`dynaguide eval protocol`, or its --emit-jobs run elsewhere): the tables.
     const ProtocolResult result = ReadProtocolLogs(args.log_path, args.cycles);
