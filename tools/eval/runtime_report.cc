@@ -111,11 +111,14 @@ std::string WriteRuntimeReport(const RuntimeResult& result, const std::string& o
         "no other choice yet: the FEM kernel in " + std::string(kPrecision) + ", the tracker's " +
         std::to_string(kTargetFeatures) + " target features. A time step above the guard's limit is refused, not "
         "run (the run's coupled simulation cannot substep).\n\n";
-  md += Printed("Errors over the first %d simulated frames of every run (the protocol's window, up to 3 cardiac "
-                "cycles), mm. Real time: video seconds per wall second, over the whole run and over the simulated "
-                "frames only (the registration window's frames do not simulate); the Pareto front and the "
-                "recommendation use internal RMS against the simulating factor.\n\n",
-                result.window_frames);
+  md += (result.window_frames < 0
+             ? std::string("No point has run yet. ")
+             : Printed("Errors over the first %d simulated frames of every run (the protocol's window: --cycles "
+                       "cardiac cycles from the simulation's start, as far as every run reaches), mm. ",
+                       result.window_frames)) +
+        "Real time: video seconds per wall second, over the whole run and over the simulated frames only (the "
+        "registration window's frames do not simulate); the Pareto front and the recommendation use internal RMS "
+        "against the simulating factor.\n\n";
 
   md += "| point | tets | dt (ms) | threads | surface avg | max | RMS | internal avg | max | RMS | real time, run | "
         "real time, simulating | Pareto |\n|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|:---:|\n";
