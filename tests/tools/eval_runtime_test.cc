@@ -301,7 +301,9 @@ TEST_CASE("eval runtime: the quick sweep on the tiny phantom, its table recomput
   const double fine = point(0, 1e-4).errors.internal_rms_mm, coarse = point(0, 4e-4).errors.internal_rms_mm;
   CHECK(fine <= coarse + 0.002);
 
-  // The same tables from the logs alone, as after --emit-jobs.
+  // The same tables from the logs alone, as after --emit-jobs (`dynaguide report DIR` tells a sweep by its points).
+  CHECK(IsRuntimeSweepDir(options.out_dir));
+  CHECK_FALSE(IsRuntimeSweepDir(dg::testing::TinyPhantomDir()));
   const RuntimeResult merged = ReadRuntimeLogs(options.out_dir, options.cycles);
   REQUIRE(merged.points.size() == result.points.size());
   for (size_t k = 0; k < merged.points.size(); ++k) {

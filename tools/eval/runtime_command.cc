@@ -24,9 +24,9 @@ void RunRuntimeCommand(RuntimeArguments& args) {
       args.from_logs.empty() ? RunRuntimeSweep(args.sweep) : ReadRuntimeLogs(args.from_logs, args.sweep.cycles);
   if (!args.sweep.emit_jobs.empty()) {
     std::printf("dynaguide eval runtime: one run per line in %s; run them one at a time on the machine whose "
-                "speed you measure (or one per node of a cluster), then\n  dynaguide eval runtime --from-logs %s\n"
-                "tabulates their logs\n",
-                args.sweep.emit_jobs.c_str(), args.sweep.out_dir.c_str());
+                "speed you measure (or one per node of a cluster), then\n  dynaguide report %s\n"
+                "(or dynaguide eval runtime --from-logs %s) tabulates their logs\n",
+                args.sweep.emit_jobs.c_str(), args.sweep.out_dir.c_str(), args.sweep.out_dir.c_str());
     return;
   }
   std::fputs(WriteRuntimeReport(result, args.sweep.out_dir).c_str(), stdout);

@@ -284,6 +284,14 @@ RuntimeResult RunRuntimeSweep(const RuntimeOptions& options) {
   return ReadRuntimeLogs(options.out_dir, options.cycles);
 }
 
+bool IsRuntimeSweepDir(const std::string& dir) {
+  std::error_code error;
+  for (fs::directory_iterator it(fs::path(dir) / "runs", error), end; !error && it != end; it.increment(error)) {
+    if (fs::exists(it->path() / kPointFile)) return true;
+  }
+  return false;
+}
+
 RuntimeResult ReadRuntimeLogs(const std::string& dir, double cycles) {
   std::vector<PointFile> files;
   std::error_code error;

@@ -96,6 +96,9 @@ RuntimeResult RunRuntimeSweep(const RuntimeOptions& options);
 // @throws dg::Error when no point is found.
 RuntimeResult ReadRuntimeLogs(const std::string& dir, double cycles);
 
+// Whether dir holds a sweep (runs/*/point.yaml): what `dynaguide report DIR` asks.
+bool IsRuntimeSweepDir(const std::string& dir);
+
 // Video seconds per wall second over a run's simulated frames, from the sink
 // stage's end times in /timings: (last - first) / fps over the wall time
 // between the two frames leaving the sink. The whole run's factor also counts

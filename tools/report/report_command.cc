@@ -6,6 +6,7 @@
 
 #include "tools/commands.h"
 #include "tools/eval/protocol.h"
+#include "tools/eval/runtime_report.h"
 #include "tools/eval/stability_report.h"
 #include "tools/report/saved_run.h"
 #include "tools/report/timing_plot.h"
@@ -24,6 +25,12 @@ void RunReportCommand(const ReportArguments& args) {
     // A `dynaguide eval stability` directory (or its --emit-jobs run elsewhere): its report from the cell logs.
     std::fputs(WriteStabilityReport(ReadStabilityLogs(args.log_path), args.log_path).c_str(), stdout);
     std::printf("\nreport, CSV and heat map in %s\n", args.log_path.c_str());
+    return;
+  }
+  if (IsRuntimeSweepDir(args.log_path)) {
+    // A `dynaguide eval runtime` directory (or its --emit-jobs run elsewhere): its report from the point logs.
+    std::fputs(WriteRuntimeReport(ReadRuntimeLogs(args.log_path, args.cycles), args.log_path).c_str(), stdout);
+    std::printf("\nreport, CSV and plot in %s\n", args.log_path.c_str());
     return;
   }
   if (std::filesystem::is_directory(args.log_path)) {
