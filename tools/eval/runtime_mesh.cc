@@ -85,12 +85,7 @@ MeshVariant PhantomMeshVariant(const io::Scene& scene, int target_tets) {
   variant.mesh_file = "runtime-mesh-" + std::to_string(target_tets) + ".msh";
   variant.scan_file = "runtime-scan-" + std::to_string(target_tets) + ".h5";
   const fs::path mesh_path = dir / variant.mesh_file, scan_path = dir / variant.scan_file;
-  if (fs::exists(mesh_path) && fs::exists(scan_path)) {
-    const sim::TetMesh mesh = io::ReadGmsh(mesh_path.string());
-    variant.tets = mesh.num_tets();
-    variant.nodes = mesh.num_nodes();
-    return variant;
-  }
+  if (fs::exists(mesh_path) && fs::exists(scan_path)) return variant;
 
   const io::H5Reader truth(scene.truth);
   const std::string preset = truth.ReadAttribute<std::string>("/", "preset");
@@ -109,13 +104,7 @@ MeshVariant PhantomMeshVariant(const io::Scene& scene, int target_tets) {
   WriteVariantScan(scene, phases, NodeDisplacements(motion, phases, mesh.X_m), mesh.num_nodes(), partial_scan.string());
   fs::rename(partial_scan, scan_path);
   fs::rename(partial_mesh, mesh_path);
-  variant.tets = mesh.num_tets();
-  variant.nodes = mesh.num_nodes();
   return variant;
-}
-
-int SceneMeshTets(const io::Scene& scene) {
-  return io::ReadGmsh(scene.mesh.file, scene.mesh.metres_per_unit).num_tets();
 }
 
 }  // namespace dg::tools

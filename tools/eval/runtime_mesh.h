@@ -16,7 +16,6 @@ namespace dg::tools {
 // whichever mesh a run loads.
 struct MeshVariant {
   std::string mesh_file, scan_file;  // beside the scene, named relative to it
-  int tets = 0, nodes = 0;
 };
 
 // Writes runtime-mesh-<target>.msh and runtime-scan-<target>.h5 beside the
@@ -28,8 +27,5 @@ struct MeshVariant {
 // scene whose motion is not its preset's (a phantom generated with
 // overrides), or a file that cannot be written.
 MeshVariant PhantomMeshVariant(const io::Scene& scene, int target_tets);
-
-// The tetrahedra of the mesh a scene names.
-int SceneMeshTets(const io::Scene& scene);
 
 }  // namespace dg::tools
