@@ -3,14 +3,13 @@
 // tiny phantom end to end, its CSV recomputed from the run logs through the
 // plain HDF5 C API.
 #include <algorithm>
+#include <catch2/catch.hpp>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <map>
 #include <set>
 #include <sstream>
-
-#include <catch2/catch.hpp>
 
 #include "tests/support/h5_plain.h"
 #include "tests/support/tiny_phantom.h"
@@ -87,18 +86,23 @@ TEST_CASE("eval runtime: the default design is one factor at a time around the b
   std::set<std::string> names;
   std::set<int> meshes_at_baseline_step;
   std::set<double> steps_on_own_mesh;
-  std::set<int> threads_at_baseline;
+  std::set<int> threads_at_baseline, features_at_baseline;
   for (const SweepPoint& p : design) {
     names.insert(p.Name());
-    if (p.dt_s == 2e-4 && p.threads == 2) meshes_at_baseline_step.insert(p.target_tets);
-    if (p.target_tets == 0 && p.threads == 2) steps_on_own_mesh.insert(std::round(p.dt_s * 1e5) / 1e5);
-    if (p.target_tets == 0 && p.dt_s == 2e-4) threads_at_baseline.insert(p.threads);
+    const bool baseline_features = p.target_features == 500;
+    if (p.dt_s == 2e-4 && p.threads == 2 && baseline_features) meshes_at_baseline_step.insert(p.target_tets);
+    if (p.target_tets == 0 && p.threads == 2 && baseline_features) {
+      steps_on_own_mesh.insert(std::round(p.dt_s * 1e5) / 1e5);
+    }
+    if (p.target_tets == 0 && p.dt_s == 2e-4 && baseline_features) threads_at_baseline.insert(p.threads);
+    if (p.target_tets == 0 && p.dt_s == 2e-4 && p.threads == 2) features_at_baseline.insert(p.target_features);
   }
   CHECK(names.size() == design.size());
-  CHECK(design.size() < 5 * 5 * 2);  // not the full factorial
+  CHECK(design.size() < 5 * 5 * 3 * 2);  // not the full factorial
   CHECK(meshes_at_baseline_step == std::set<int>{0, 2000, 4000, 16000, 32000});
   CHECK(steps_on_own_mesh == std::set<double>{1e-4, 2e-4, 3e-4, 4e-4, 5e-4});
   CHECK(threads_at_baseline == std::set<int>{1, 2});
+  CHECK(features_at_baseline == std::set<int>{250, 500, 1000});
 }
 
 namespace {
@@ -259,6 +263,7 @@ TEST_CASE("eval runtime: the quick sweep on the tiny phantom, its table recomput
     }
     CHECK(Number(row, "dt_ms") == Approx(p.plan.point.dt_s * 1e3));
     CHECK(Number(row, "threads") == p.plan.point.threads);
+    CHECK(Number(row, "target_features") == p.plan.point.target_features);
   }
   CHECK(logs == static_cast<int>(DesignSweep(true).size()));
 
@@ -323,7 +328,7 @@ TEST_CASE("eval runtime: the quick sweep on the tiny phantom, its table recomput
   for (std::string line; std::getline(list, line); ++lines) {
     CHECK(line.rfind("dynaguide run ", 0) == 0);
     CHECK(line.find(" --out " + jobs.out_dir + "/runs/") != std::string::npos);
-    CHECK(line.find(" --no-video --threads 2") != std::string::npos);
+    CHECK(line.find(" --no-video --features 500 --threads 2") != std::string::npos);
   }
   CHECK(lines == static_cast<int>(DesignSweep(true).size()));
 }

@@ -1,8 +1,7 @@
 // `dynaguide eval runtime`: error against run time (issue 9).
+#include <CLI/CLI.hpp>
 #include <cstdio>
 #include <memory>
-
-#include <CLI/CLI.hpp>
 
 #include "tools/eval/eval_subcommands.h"
 #include "tools/eval/runtime_report.h"
@@ -23,10 +22,11 @@ void RunRuntimeCommand(RuntimeArguments& args) {
   const RuntimeResult result =
       args.from_logs.empty() ? RunRuntimeSweep(args.sweep) : ReadRuntimeLogs(args.from_logs, args.sweep.cycles);
   if (!args.sweep.emit_jobs.empty()) {
-    std::printf("dynaguide eval runtime: one run per line in %s; run them one at a time on the machine whose "
-                "speed you measure (or one per node of a cluster), then\n  dynaguide report %s\n"
-                "(or dynaguide eval runtime --from-logs %s) tabulates their logs\n",
-                args.sweep.emit_jobs.c_str(), args.sweep.out_dir.c_str(), args.sweep.out_dir.c_str());
+    std::printf(
+        "dynaguide eval runtime: one run per line in %s; run them one at a time on the machine whose "
+        "speed you measure (or one per node of a cluster), then\n  dynaguide report %s\n"
+        "(or dynaguide eval runtime --from-logs %s) tabulates their logs\n",
+        args.sweep.emit_jobs.c_str(), args.sweep.out_dir.c_str(), args.sweep.out_dir.c_str());
     return;
   }
   std::fputs(WriteRuntimeReport(result, args.sweep.out_dir).c_str(), stdout);

@@ -99,7 +99,8 @@ MeshVariant PhantomMeshVariant(const io::Scene& scene, int target_tets) {
   const sim::TetMesh mesh = io::MeshTruncatedEllipsoid({spec.semi_axes_m, spec.centre_height_m, target_tets});
   // Written under temporary names (keeping the extensions the writers ask
   // for) and renamed, so that an interrupted sweep never leaves half a pair to reuse.
-  const fs::path partial_mesh = dir / ("partial-" + variant.mesh_file), partial_scan = dir / ("partial-" + variant.scan_file);
+  const fs::path partial_mesh = dir / ("partial-" + variant.mesh_file),
+                 partial_scan = dir / ("partial-" + variant.scan_file);
   io::WriteMsh(mesh, partial_mesh.string(), 41);
   WriteVariantScan(scene, phases, NodeDisplacements(motion, phases, mesh.X_m), mesh.num_nodes(), partial_scan.string());
   fs::rename(partial_scan, scan_path);

@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -63,8 +62,10 @@ void WriteErrorRuntimePlot(const RuntimeResult& result, const std::string& png_p
     }
   }
   const double raw_step = (y_hi - y_lo) / 6, power = std::pow(10.0, std::floor(std::log10(raw_step)));
-  const double y_step = raw_step <= power ? power : raw_step <= 2 * power ? 2 * power : raw_step <= 5 * power ? 5 * power
-                                                                                                            : 10 * power;
+  const double y_step = raw_step <= power       ? power
+                        : raw_step <= 2 * power ? 2 * power
+                        : raw_step <= 5 * power ? 5 * power
+                                                : 10 * power;
   for (double y = std::ceil(y_lo / y_step) * y_step; y <= y_hi; y += y_step) {
     cv::line(canvas, at(x_min, y), at(x_max, y), kGrid, 1);
     Text(canvas, Printed("%g", y), at(x_min, y) + cv::Point(-55, 5), 0.45, kInk);
@@ -72,8 +73,7 @@ void WriteErrorRuntimePlot(const RuntimeResult& result, const std::string& png_p
   cv::rectangle(canvas, at(x_min, y_hi), at(x_max, y_lo), kInk, 1);
   Text(canvas, "real-time factor while simulating (video s per wall s, log scale)",
        {left + static_cast<int>(plot_w / 2) - 250, size.height - 20}, 0.55, kInk);
-  Text(canvas,
-       "internal error, RMS (mm; the axis spans the points' range, not from 0): " + result.scene_name,
+  Text(canvas, "internal error, RMS (mm; the axis spans the points' range, not from 0): " + result.scene_name,
        {left - 70, 30}, 0.55, kInk);
 
   // Real time: a dashed vertical line, labelled on the side with room.
@@ -108,8 +108,8 @@ void WriteErrorRuntimePlot(const RuntimeResult& result, const std::string& png_p
     const std::string name = p->plan.point.Name();
     int baseline = 0;
     const cv::Size text = cv::getTextSize(name, cv::FONT_HERSHEY_SIMPLEX, 0.4, 1, &baseline);
-    for (const cv::Point offset : {cv::Point(9, -7), cv::Point(9, 16), cv::Point(-9 - text.width, -7),
-                                   cv::Point(-9 - text.width, 16)}) {
+    for (const cv::Point offset :
+         {cv::Point(9, -7), cv::Point(9, 16), cv::Point(-9 - text.width, -7), cv::Point(-9 - text.width, 16)}) {
       const cv::Rect box(c + offset - cv::Point(0, text.height), cv::Size(text.width, text.height + baseline));
       const bool inside = box.x >= 0 && box.x + box.width < size.width;
       if (!inside || std::any_of(taken.begin(), taken.end(), [&](const cv::Rect& r) { return (r & box).area() > 0; })) {

@@ -17,7 +17,6 @@ namespace fs = std::filesystem;
 
 // What every point shares because the graph fixes it (see runtime_sweep.h).
 constexpr const char* kPrecision = "float";
-constexpr int kTargetFeatures = 500;
 
 std::string Status(const PointResult& p) {
   if (p.plan.refused) {
@@ -66,16 +65,18 @@ std::string RecommendationText(const RuntimeResult& result) {
     for (const PointResult& p : result.points) {
       if (p.ran && p.plan.point.threads == 2) fastest = std::max(fastest, p.simulating_realtime_factor);
     }
-    return Printed("No configuration kept up with real time on two threads here (the fastest simulated at %.2fx): "
-                   "for real time on two cores, coarsen the mesh or lengthen the step beyond this sweep.",
-                   fastest);
+    return Printed(
+        "No configuration kept up with real time on two threads here (the fastest simulated at %.2fx): "
+        "for real time on two cores, coarsen the mesh or lengthen the step beyond this sweep.",
+        fastest);
   }
   const PointResult& p = result.points[*result.recommended];
-  return Printed("For real time on two cores, pick %s: %d tetrahedra, dt %.2f ms, %s, %d target features, "
-                 "2 threads, the most accurate point that keeps up (internal RMS %.3f mm, surface RMS %.3f mm, "
-                 "%.2fx real time while simulating).",
-                 p.plan.point.Name().c_str(), p.plan.tets, p.plan.point.dt_s * 1e3, kPrecision, kTargetFeatures,
-                 p.errors.internal_rms_mm, p.errors.surface_rms_mm, p.simulating_realtime_factor);
+  return Printed(
+      "For real time on two cores, pick %s: %d tetrahedra, dt %.2f ms, %s, %d target features, "
+      "2 threads, the most accurate point that keeps up (internal RMS %.3f mm, surface RMS %.3f mm, "
+      "%.2fx real time while simulating).",
+      p.plan.point.Name().c_str(), p.plan.tets, p.plan.point.dt_s * 1e3, kPrecision, p.plan.point.target_features,
+      p.errors.internal_rms_mm, p.errors.surface_rms_mm, p.simulating_realtime_factor);
 }
 
 std::string WriteRuntimeReport(const RuntimeResult& result, const std::string& out_dir) {
@@ -98,19 +99,22 @@ std::string WriteRuntimeReport(const RuntimeResult& result, const std::string& o
   for (const std::string& m : machines) machine_text += (machine_text.empty() ? "" : "; ") + m;
 
   std::string md = "# dynaguide eval runtime: error against run time\n\n";
-  md += "Scene: " + result.scene_name + ". Every point is one `dynaguide run` of the whole graph (registered from "
+  md += "Scene: " + result.scene_name +
+        ". Every point is one `dynaguide run` of the whole graph (registered from "
         "the video, combined mode, the scene's overlays, offline policy, no video file), one point at a time, on " +
         (machine_text.empty() ? std::string("no machine yet (no point has run)") : machine_text) + ". " +
-        (load_min <= load_max ? Printed("The 1-minute load average was %.1f to %.1f when the points started: ", load_min,
-                                        load_max) +
-                                    std::string("timings compare only between points measured under the same load.")
-                              : std::string("The points ran elsewhere (--emit-jobs): their load is not recorded.")) +
+        (load_min <= load_max
+             ? Printed("The 1-minute load average was %.1f to %.1f when the points started: ", load_min, load_max) +
+                   std::string("timings compare only between points measured under the same load.")
+             : std::string("The points ran elsewhere (--emit-jobs): their load is not recorded.")) +
         "\n\n";
-  md += "Design: one factor at a time around the baseline (the phantom's own mesh, dt 0.2 ms, 2 threads), plus a "
-        "few combinations toward real time; not a full factorial. Fixed in every point, because the graph offers "
-        "no other choice yet: the FEM kernel in " + std::string(kPrecision) + ", the tracker's " +
-        std::to_string(kTargetFeatures) + " target features. A time step above the guard's limit is refused, not "
-        "run (the run's coupled simulation cannot substep).\n\n";
+  md +=
+      "Design: one factor at a time around the baseline (the phantom's own mesh, dt 0.2 ms, 500 target "
+      "features, 2 threads), plus a few combinations toward real time; not a full factorial. Fixed in every "
+      "point, because the graph offers no other choice yet: the FEM kernel in " +
+      std::string(kPrecision) +
+      ". A time step above the guard's limit is refused, not run (the run's coupled simulation cannot "
+      "substep).\n\n";
   md += (result.window_frames < 0
              ? std::string("No point has run yet. ")
              : Printed("Errors over the first %d simulated frames of every run (the protocol's window: --cycles "
@@ -120,11 +124,14 @@ std::string WriteRuntimeReport(const RuntimeResult& result, const std::string& o
         "registration window's frames do not simulate); the Pareto front and the recommendation use internal RMS "
         "against the simulating factor.\n\n";
 
-  md += "| point | tets | dt (ms) | threads | surface avg | max | RMS | internal avg | max | RMS | real time, run | "
-        "real time, simulating | Pareto |\n|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|:---:|\n";
-  std::string csv = "point,tets,nodes,dt_ms,threads,precision,target_features,dt_critical_ms,status,surface_avg_mm,"
-                    "surface_max_mm,surface_rms_mm,internal_avg_mm,internal_max_mm,internal_rms_mm,realtime_factor,"
-                    "simulating_realtime_factor,pareto,recommended,load_average";
+  md +=
+      "| point | tets | dt (ms) | features | threads | surface avg | max | RMS | internal avg | max | RMS | real time, "
+      "run | "
+      "real time, simulating | Pareto |\n|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|:---:|\n";
+  std::string csv =
+      "point,tets,nodes,dt_ms,threads,precision,target_features,dt_critical_ms,status,surface_avg_mm,"
+      "surface_max_mm,surface_rms_mm,internal_avg_mm,internal_max_mm,internal_rms_mm,realtime_factor,"
+      "simulating_realtime_factor,pareto,recommended,load_average";
   for (const std::string& stage : stages) csv += "," + stage + "_median_ms";
   csv += "\n";
   for (size_t k = 0; k < result.points.size(); ++k) {
@@ -132,7 +139,8 @@ std::string WriteRuntimeReport(const RuntimeResult& result, const std::string& o
     const ErrorFigures& e = p.errors;
     const bool recommended = result.recommended == k;
     md += "| " + p.plan.point.Name() + (recommended ? " (recommended)" : "") + " | " + std::to_string(p.plan.tets) +
-          " | " + Printed("%.2f", p.plan.point.dt_s * 1e3) + " | " + std::to_string(p.plan.point.threads) + " | ";
+          " | " + Printed("%.2f", p.plan.point.dt_s * 1e3) + " | " + std::to_string(p.plan.point.target_features) +
+          " | " + std::to_string(p.plan.point.threads) + " | ";
     if (p.ran) {
       md += Printed("%.3f | %.3f | %.3f | %.3f | %.3f | %.3f | %.2f | %.2f | %s |\n", e.surface_avg_mm,
                     e.surface_max_mm, e.surface_rms_mm, e.internal_avg_mm, e.internal_max_mm, e.internal_rms_mm,
@@ -141,8 +149,8 @@ std::string WriteRuntimeReport(const RuntimeResult& result, const std::string& o
       md += Status(p) + " | | | | | | | | |\n";
     }
     csv += p.plan.point.Name() + "," + std::to_string(p.plan.tets) + "," + std::to_string(p.plan.nodes) + "," +
-           Printed("%.4f,%d,%s,%d,%.6f,", p.plan.point.dt_s * 1e3, p.plan.point.threads, kPrecision, kTargetFeatures,
-                   p.plan.dt_critical_s * 1e3) +
+           Printed("%.4f,%d,%s,%d,%.6f,", p.plan.point.dt_s * 1e3, p.plan.point.threads, kPrecision,
+                   p.plan.point.target_features, p.plan.dt_critical_s * 1e3) +
            CsvQuoted(Status(p)) +
            Printed(",%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%d,%d,%.2f", e.surface_avg_mm, e.surface_max_mm,
                    e.surface_rms_mm, e.internal_avg_mm, e.internal_max_mm, e.internal_rms_mm, p.realtime_factor,
@@ -165,8 +173,9 @@ std::string WriteRuntimeReport(const RuntimeResult& result, const std::string& o
     }
   }
   md += "\n## Recommendation\n\n" + RecommendationText(result) + "\n\n";
-  md += "Files: runtime.csv (every figure), error_vs_runtime.png (the Pareto front joined, real time marked), "
-        "runs/<point>/run.h5 and point.yaml.\n";
+  md +=
+      "Files: runtime.csv (every figure), error_vs_runtime.png (the Pareto front joined, real time marked), "
+      "runs/<point>/run.h5 and point.yaml.\n";
 
   // After --emit-jobs and before its jobs ran, the table lists the points without a plot.
   if (std::any_of(result.points.begin(), result.points.end(),
@@ -185,17 +194,17 @@ void WriteRuntimeJson(const RuntimeResult& result, const std::string& path) {
   for (size_t k = 0; k < result.points.size(); ++k) {
     const PointResult& p = result.points[k];
     const ErrorFigures& e = p.errors;
-    json += Printed("    {\"name\": %s, \"tets\": %d, \"dt_ms\": %.6g, \"threads\": %d, \"precision\": %s, "
-                    "\"target_features\": %d, \"status\": %s, \"surface_avg_mm\": %.6g, \"surface_max_mm\": %.6g, "
-                    "\"surface_rms_mm\": %.6g, \"internal_avg_mm\": %.6g, \"internal_max_mm\": %.6g, "
-                    "\"internal_rms_mm\": %.6g, \"realtime_factor\": %.6g, \"simulating_realtime_factor\": %.6g, "
-                    "\"pareto\": %s, \"recommended\": %s}%s\n",
-                    JsonQuoted(p.plan.point.Name()).c_str(), p.plan.tets, p.plan.point.dt_s * 1e3,
-                    p.plan.point.threads, JsonQuoted(kPrecision).c_str(), kTargetFeatures,
-                    JsonQuoted(Status(p)).c_str(), e.surface_avg_mm, e.surface_max_mm, e.surface_rms_mm,
-                    e.internal_avg_mm, e.internal_max_mm, e.internal_rms_mm, p.realtime_factor,
-                    p.simulating_realtime_factor, p.pareto ? "true" : "false",
-                    result.recommended == k ? "true" : "false", k + 1 < result.points.size() ? "," : "");
+    json += Printed(
+        "    {\"name\": %s, \"tets\": %d, \"dt_ms\": %.6g, \"threads\": %d, \"precision\": %s, "
+        "\"target_features\": %d, \"status\": %s, \"surface_avg_mm\": %.6g, \"surface_max_mm\": %.6g, "
+        "\"surface_rms_mm\": %.6g, \"internal_avg_mm\": %.6g, \"internal_max_mm\": %.6g, "
+        "\"internal_rms_mm\": %.6g, \"realtime_factor\": %.6g, \"simulating_realtime_factor\": %.6g, "
+        "\"pareto\": %s, \"recommended\": %s}%s\n",
+        JsonQuoted(p.plan.point.Name()).c_str(), p.plan.tets, p.plan.point.dt_s * 1e3, p.plan.point.threads,
+        JsonQuoted(kPrecision).c_str(), p.plan.point.target_features, JsonQuoted(Status(p)).c_str(), e.surface_avg_mm,
+        e.surface_max_mm, e.surface_rms_mm, e.internal_avg_mm, e.internal_max_mm, e.internal_rms_mm, p.realtime_factor,
+        p.simulating_realtime_factor, p.pareto ? "true" : "false", result.recommended == k ? "true" : "false",
+        k + 1 < result.points.size() ? "," : "");
   }
   json += "  ]\n}\n";
   std::ofstream out(path);

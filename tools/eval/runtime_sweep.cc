@@ -1,5 +1,7 @@
 #include "tools/eval/runtime_sweep.h"
 
+#include <yaml-cpp/yaml.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -7,8 +9,6 @@
 #include <filesystem>
 #include <fstream>
 #include <tuple>
-
-#include <yaml-cpp/yaml.h>
 
 #include "io/gmsh_reader.h"
 #include "io/h5_file.h"
@@ -73,8 +73,8 @@ double LoadAverage() {
   return load;
 }
 
-void WritePointFile(const std::string& dir, const std::string& scene_name, const PointPlan& plan,
-                    double load_average, const std::string& error) {
+void WritePointFile(const std::string& dir, const std::string& scene_name, const PointPlan& plan, double load_average,
+                    const std::string& error) {
   YAML::Emitter yaml;
   yaml << YAML::BeginMap;
   yaml << YAML::Key << "name" << YAML::Value << plan.point.Name();
@@ -84,6 +84,7 @@ void WritePointFile(const std::string& dir, const std::string& scene_name, const
   yaml << YAML::Key << "tets" << YAML::Value << plan.tets;
   yaml << YAML::Key << "nodes" << YAML::Value << plan.nodes;
   yaml << YAML::Key << "dt_s" << YAML::Value << plan.point.dt_s;
+  yaml << YAML::Key << "target_features" << YAML::Value << plan.point.target_features;
   yaml << YAML::Key << "threads" << YAML::Value << plan.point.threads;
   yaml << YAML::Key << "dt_critical_s" << YAML::Value << plan.dt_critical_s;
   yaml << YAML::Key << "refused" << YAML::Value << plan.refused;
@@ -114,6 +115,7 @@ PointFile ReadPointFile(const std::string& path) {
     plan.scene = yaml["scene"].as<std::string>();
     plan.point.target_tets = yaml["target_tets"].as<int>();
     plan.point.dt_s = yaml["dt_s"].as<double>();
+    plan.point.target_features = yaml["target_features"].as<int>();
     plan.point.threads = yaml["threads"].as<int>();
     plan.tets = yaml["tets"].as<int>();
     plan.nodes = yaml["nodes"].as<int>();
@@ -150,24 +152,25 @@ std::string Duration(double seconds) {
 
 std::string SweepPoint::Name() const {
   return (target_tets > 0 ? "tets" + std::to_string(target_tets) : std::string("tets-own")) +
-         Printed("_dt%.2fms_threads%d", dt_s * 1e3, threads);
+         Printed("_dt%.2fms_f%d_threads%d", dt_s * 1e3, target_features, threads);
 }
 
 std::vector<SweepPoint> DesignSweep(bool quick) {
   if (quick) {
     // The tiny phantom's 1.5k mesh at three steps, and a finer mesh through the variant path.
-    return {{0, 1e-4, 2}, {0, 2e-4, 2}, {0, 4e-4, 2}, {3000, 2e-4, 2}};
+    return {{0, 1e-4, 500, 2}, {0, 2e-4, 500, 2}, {0, 4e-4, 500, 2}, {3000, 2e-4, 500, 2}};
   }
   // The default phantom's own mesh is the generator's 8k: the baseline.
-  std::vector<SweepPoint> points = {{0, 2e-4, 2}};
-  for (int tets : {2000, 4000, 16000, 32000}) points.push_back({tets, 2e-4, 2});
-  for (double dt_s : {1e-4, 3e-4, 4e-4, 5e-4}) points.push_back({0, dt_s, 2});
-  points.push_back({0, 2e-4, 1});
+  std::vector<SweepPoint> points = {{0, 2e-4, 500, 2}};
+  for (int tets : {2000, 4000, 16000, 32000}) points.push_back({tets, 2e-4, 500, 2});
+  for (double dt_s : {1e-4, 3e-4, 4e-4, 5e-4}) points.push_back({0, dt_s, 500, 2});
+  for (int features : {250, 1000}) points.push_back({0, 2e-4, features, 2});
+  points.push_back({0, 2e-4, 500, 1});
   // Toward real time: coarser meshes with longer steps, on two cores and one;
   // and a finer mesh at the longest step its limit allows (about 0.35 ms on
   // the default phantom: 0.3 ms is safe, 0.4 ms refused).
-  for (const SweepPoint& combination :
-       {SweepPoint{4000, 4e-4, 2}, SweepPoint{4000, 4e-4, 1}, SweepPoint{2000, 5e-4, 2}, SweepPoint{16000, 3e-4, 2}}) {
+  for (const SweepPoint& combination : {SweepPoint{4000, 4e-4, 500, 2}, SweepPoint{4000, 4e-4, 500, 1},
+                                        SweepPoint{2000, 5e-4, 500, 2}, SweepPoint{16000, 3e-4, 500, 2}}) {
     points.push_back(combination);
   }
   return points;
@@ -212,9 +215,9 @@ std::optional<size_t> RecommendForRealTime(const std::vector<PointResult>& point
 }
 
 RuntimeResult RunRuntimeSweep(const RuntimeOptions& options) {
-  const std::string scene_file =
-      options.scene.empty() ? CachedPhantomScenePath(options.quick ? "tiny" : "default", 1, options.progress)
-                            : options.scene;
+  const std::string scene_file = options.scene.empty()
+                                     ? CachedPhantomScenePath(options.quick ? "tiny" : "default", 1, options.progress)
+                                     : options.scene;
   const io::Scene scene = io::ReadScene(scene_file);
   if (scene.truth.empty() || !scene.preoperative || !scene.simulation) {
     throw Error("the scene has no ground truth, preoperative scan or simulation", scene_file,
@@ -245,7 +248,7 @@ RuntimeResult RunRuntimeSweep(const RuntimeOptions& options) {
     for (const PointPlan& plan : plans) {
       if (plan.refused) continue;
       jobs << "dynaguide run " << plan.scene << " --out " << options.out_dir << "/runs/" << plan.point.Name()
-           << " --no-video --threads " << plan.point.threads << "\n";
+           << " --no-video --features " << plan.point.target_features << " --threads " << plan.point.threads << "\n";
     }
     if (!jobs) throw Error("cannot write the job list", options.emit_jobs, "check the directory exists");
     return {};
@@ -268,6 +271,7 @@ RuntimeResult RunRuntimeSweep(const RuntimeOptions& options) {
     run.scene = plan.scene;
     run.out_dir = dir;
     run.threads = plan.point.threads;
+    run.front_end.target_features = plan.point.target_features;
     run.video = false;
     run.progress = options.progress;
     std::string error;
@@ -304,8 +308,8 @@ RuntimeResult ReadRuntimeLogs(const std::string& dir, double cycles) {
                 "run `dynaguide eval runtime --out " + dir + "` (or its --emit-jobs jobs) first");
   }
   std::sort(files.begin(), files.end(), [](const PointFile& a, const PointFile& b) {
-    return std::tuple(a.plan.tets, a.plan.point.dt_s, a.plan.point.threads) <
-           std::tuple(b.plan.tets, b.plan.point.dt_s, b.plan.point.threads);
+    return std::tuple(a.plan.tets, a.plan.point.dt_s, a.plan.point.target_features, a.plan.point.threads) <
+           std::tuple(b.plan.tets, b.plan.point.dt_s, b.plan.point.target_features, b.plan.point.threads);
   });
 
   RuntimeResult result;

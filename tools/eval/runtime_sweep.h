@@ -11,36 +11,39 @@ namespace dg::tools {
 
 // `dynaguide eval runtime` (issue 9): error against run time. A sweep over
 // what trades accuracy for speed on a phantom with ground truth: the mesh's
-// resolution, the time step and the threads. Each point is an independent
-// `dynaguide run` of the whole graph (registered from the video, combined
-// mode, the scene's overlays, offline policy, no video file) writing its own
-// log under DIR/runs/<point>/run.h5 beside point.yaml (what the point is);
-// every figure of the report is read back from those files.
+// resolution, the time step, the tracker's target feature count and the
+// threads. Each point is an independent `dynaguide run` of the whole graph
+// (registered from the video, combined mode, the scene's overlays, offline
+// policy, no video file) writing its own log under DIR/runs/<point>/run.h5
+// beside point.yaml (what the point is); every figure of the report is read
+// back from those files.
 //
 // Fixed in every point, because the graph offers no other choice yet: the FEM
-// kernel in float (stages::FemStage runs CoupledSimulation<float>) and the
-// tracker's 500 target features (stages::OptionsForDepthRange).
+// kernel in float (stages::FemStage runs CoupledSimulation<float>).
 
 // One configuration.
 struct SweepPoint {
   int target_tets = 0;  // 0: the scene's own mesh; else a mesh of the phantom's shape at about this size
   double dt_s = 2e-4;
+  int target_features = 500;  // the tracker's (pipeline::FrontEndSettings)
   int threads = 2;
-  // Unique and stable, the run's directory: e.g. "tets8000_dt0.20ms_threads2" ("tets-own_..." for the scene's mesh).
+  // Unique and stable, the run's directory: e.g. "tets8000_dt0.20ms_f500_threads2"
+  // ("tets-own_..." for the scene's own mesh).
   std::string Name() const;
 };
 
 // One-factor-at-a-time around a baseline, plus a few combinations (a full
-// factorial of 5 meshes x 5 steps x 2 thread counts is 50 runs; this is 14):
-//   baseline: the phantom's own 8k mesh, dt 0.2 ms, 2 threads;
-//   mesh 2k, 4k, 16k, 32k; dt 0.1, 0.3, 0.4, 0.5 ms; 1 thread;
+// factorial of 5 meshes x 5 steps x 3 feature counts x 2 thread counts is 150
+// runs; this is 16):
+//   baseline: the phantom's own 8k mesh, dt 0.2 ms, 500 features, 2 threads;
+//   mesh 2k, 4k, 16k, 32k; dt 0.1, 0.3, 0.4, 0.5 ms; 250 and 1000 features; 1 thread;
 //   combinations toward real time: 4k at 0.4 ms on 2 and 1 threads, 2k at
 //   0.5 ms, 16k at 0.3 ms.
 // Steps above a mesh's limit are refused by the guard and reported, not run
 // (on the default phantom the own 8k mesh's dt_cr is about 0.40 ms, so 0.4
 // and 0.5 ms are refused there).
 // Quick (tests): the tiny phantom's own mesh at dt 0.1, 0.2, 0.4 ms and a 3k
-// mesh at 0.2 ms, all on 2 threads.
+// mesh at 0.2 ms, all with 500 features on 2 threads.
 std::vector<SweepPoint> DesignSweep(bool quick);
 
 // What the guard (sim/tled_solver.h, TimeStepPolicy::kRefuse, the policy of
@@ -55,11 +58,11 @@ struct PointPlan {
 };
 
 struct RuntimeOptions {
-  std::string scene;       // empty: the preset's phantom, seed 1, from the cache
-  bool quick = false;      // DesignSweep(true) on the tiny preset
+  std::string scene;   // empty: the preset's phantom, seed 1, from the cache
+  bool quick = false;  // DesignSweep(true) on the tiny preset
   std::string out_dir = "out/runtime";
-  std::string emit_jobs;   // write one `dynaguide run` line per point here instead of running
-  double cycles = 3;       // the error window from the simulation's start, as the protocol's
+  std::string emit_jobs;  // write one `dynaguide run` line per point here instead of running
+  double cycles = 3;      // the error window from the simulation's start, as the protocol's
   bool progress = true;
 };
 
@@ -69,18 +72,18 @@ struct PointResult {
   bool ran = false;   // its run log was read
   std::string error;  // why its run failed, when it did
   ErrorFigures errors;
-  double realtime_factor = 0;            // the whole run's: video seconds per wall second
-  double simulating_realtime_factor = 0;  // over the simulated frames only (see SimulatingRealtimeFactor)
+  double realtime_factor = 0;                     // the whole run's: video seconds per wall second
+  double simulating_realtime_factor = 0;          // over the simulated frames only (see SimulatingRealtimeFactor)
   std::vector<pipeline::StageStatistics> stages;  // per stage over the simulated frames: median, p95, mean ms
-  std::string machine;      // the run log's: CPU, cores, threads used, SIMD, compiler
+  std::string machine;                            // the run log's: CPU, cores, threads used, SIMD, compiler
   double load_average = 0;  // the 1-minute load when the point started locally; 0 for a job run elsewhere
   bool pareto = false;      // non-dominated in (internal RMS error, simulating real-time factor)
 };
 
 struct RuntimeResult {
   std::string scene_name;
-  int window_frames = 0;  // of every run's errors; -1 when no point ran
-  std::vector<PointResult> points;  // in design order (DesignSweep's, or directory order from logs)
+  int window_frames = 0;              // of every run's errors; -1 when no point ran
+  std::vector<PointResult> points;    // in design order (DesignSweep's, or directory order from logs)
   std::optional<size_t> recommended;  // RecommendForRealTime
 };
 
