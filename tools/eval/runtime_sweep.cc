@@ -188,13 +188,13 @@ double SimulatingRealtimeFactor(const std::vector<pipeline::StageTiming>& timing
   return (last_frame - first_frame) / fps / ((last_end_ns - first_end_ns) * 1e-9);
 }
 
-std::vector<bool> ParetoFront(const std::vector<CostAccuracy>& points) {
+std::vector<bool> ParetoFront(const std::vector<CostAccuracy>& points, double error_tolerance_mm) {
   std::vector<bool> front(points.size(), true);
   for (size_t i = 0; i < points.size(); ++i) {
     for (size_t j = 0; j < points.size() && front[i]; ++j) {
       const CostAccuracy &a = points[i], &b = points[j];
-      const bool no_worse = b.realtime_factor >= a.realtime_factor && b.error_mm <= a.error_mm;
-      const bool better = b.realtime_factor > a.realtime_factor || b.error_mm < a.error_mm;
+      const bool no_worse = b.realtime_factor >= a.realtime_factor && b.error_mm <= a.error_mm + error_tolerance_mm;
+      const bool better = b.realtime_factor > a.realtime_factor || b.error_mm < a.error_mm - error_tolerance_mm;
       if (no_worse && better) front[i] = false;
     }
   }
@@ -202,16 +202,20 @@ std::vector<bool> ParetoFront(const std::vector<CostAccuracy>& points) {
 }
 
 std::optional<size_t> RecommendForRealTime(const std::vector<PointResult>& points, int threads) {
-  std::optional<size_t> best;
+  const auto keeps_up = [&](const PointResult& p) {
+    return p.ran && p.plan.point.threads == threads && p.simulating_realtime_factor >= 1;
+  };
+  double best_error_mm = INFINITY;
+  for (const PointResult& p : points) {
+    if (keeps_up(p)) best_error_mm = std::min(best_error_mm, p.errors.internal_rms_mm);
+  }
+  std::optional<size_t> fastest;
   for (size_t k = 0; k < points.size(); ++k) {
     const PointResult& p = points[k];
-    if (!p.ran || p.plan.point.threads != threads || p.simulating_realtime_factor < 1) continue;
-    if (!best || std::pair(p.errors.internal_rms_mm, -p.simulating_realtime_factor) <
-                     std::pair(points[*best].errors.internal_rms_mm, -points[*best].simulating_realtime_factor)) {
-      best = k;
-    }
+    if (!keeps_up(p) || p.errors.internal_rms_mm > best_error_mm + kSameErrorMm) continue;
+    if (!fastest || p.simulating_realtime_factor > points[*fastest].simulating_realtime_factor) fastest = k;
   }
-  return best;
+  return fastest;
 }
 
 RuntimeResult RunRuntimeSweep(const RuntimeOptions& options) {
@@ -356,7 +360,7 @@ RuntimeResult ReadRuntimeLogs(const std::string& dir, double cycles) {
     measured.push_back({result.points[k].simulating_realtime_factor, result.points[k].errors.internal_rms_mm});
     measured_index.push_back(k);
   }
-  const std::vector<bool> front = ParetoFront(measured);
+  const std::vector<bool> front = ParetoFront(measured, kSameErrorMm);
   for (size_t m = 0; m < measured.size(); ++m) result.points[measured_index[m]].pareto = front[m];
   result.recommended = RecommendForRealTime(result.points);
   return result;

@@ -111,18 +111,25 @@ bool IsRuntimeSweepDir(const std::string& dir);
 double SimulatingRealtimeFactor(const std::vector<pipeline::StageTiming>& timings, int sink_stage,
                                 std::int64_t first_frame, std::int64_t last_frame, double fps);
 
+// Errors closer than this are the same error to a user: the report prints
+// micrometres, and the sweep's steps and thread counts move the default
+// phantom's errors by 0.1 um (float round-off), not by a clinical amount.
+inline constexpr double kSameErrorMm = 1e-3;
+
 // A point as the Pareto front sees it: smaller error and larger real-time factor are better.
 struct CostAccuracy {
   double realtime_factor = 0;
   double error_mm = 0;
 };
-// For each point, whether no other point is at least as good in both and
-// better in one (equal points are all on the front).
-std::vector<bool> ParetoFront(const std::vector<CostAccuracy>& points);
+// For each point, whether no other point dominates it: is at least as fast,
+// no less accurate beyond error_tolerance_mm, and faster or more accurate
+// beyond it. Equal points are all on the front.
+std::vector<bool> ParetoFront(const std::vector<CostAccuracy>& points, double error_tolerance_mm = 0);
 
 // The point a user should pick for real time on `threads` threads: the most
-// accurate (internal RMS) whose simulating real-time factor is at least 1;
-// ties to the faster. None when no point on that many threads keeps up.
+// accurate (internal RMS) whose simulating real-time factor is at least 1,
+// where errors within kSameErrorMm of the best count as equal and the
+// fastest of them wins. None when no point on that many threads keeps up.
 std::optional<size_t> RecommendForRealTime(const std::vector<PointResult>& points, int threads = 2);
 
 }  // namespace dg::tools
