@@ -122,7 +122,7 @@ std::string WriteRuntimeReport(const RuntimeResult& result, const std::string& o
                        result.window_frames)) +
         "Real time: video seconds per wall second, over the whole run and over the simulated frames only (the "
         "registration window's frames do not simulate); the Pareto front and the recommendation use internal RMS "
-        "against the simulating factor.\n\n";
+        "against the simulating factor, errors within " + Printed("%g", kSameErrorMm) + " mm counting as equal.\n\n";
 
   md +=
       "| point | tets | dt (ms) | features | threads | surface avg | max | RMS | internal avg | max | RMS | real time, "
