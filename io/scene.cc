@@ -145,6 +145,11 @@ Scene::Simulation ReadSimulation(const YamlMap& map) {
   simulation.damping_per_s = map.Number("damping_per_s", simulation.damping_per_s);
   simulation.motion_smoothing = map.Number("motion_smoothing", simulation.motion_smoothing);
   simulation.concurrent = map.Boolean("concurrent", simulation.concurrent);
+  simulation.precision = map.String("precision", simulation.precision);
+  if (simulation.precision != "float" && simulation.precision != "double") {
+    throw Error("unknown precision '" + simulation.precision + "'", map.Where("precision"),
+                "use float (the default, faster) or double");
+  }
   simulation.sampled_nodes = map.Integer("sampled_nodes", simulation.sampled_nodes);
   simulation.max_tie_distance_m = map.Number("max_tie_distance_m", simulation.max_tie_distance_m);
   if (!(simulation.dt_s > 0)) throw Error("'dt_s' must be positive", map.Where("dt_s"), "the paper uses 2e-4 s");

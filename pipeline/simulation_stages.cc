@@ -117,11 +117,13 @@ void FemAdapter::Process(FramePacket& packet) {
     options.phase_at_first_frame = setup_->PhaseAt(*packet.registration, packet.t_s);
     options.sampled_nodes = setup_->options.sampled_nodes;
     options.concurrent = setup_->options.concurrent;
+    options.double_precision = setup_->options.precision == "double";
     fem_ = std::make_unique<stages::FemStage>(options, setup_->mesh, setup_->material, setup_->motion,
                                               setup_->fixed_nodes);
     first_frame_ = packet.index;
-    Logger("simulate").info("simulation starts at frame {} ({} mode, dt {} ms, critical dt {:.3f} ms)", packet.index,
-                            setup_->options.mode, 1e3 * options.dt_s, 1e3 * fem_->stability().dt_critical_s);
+    Logger("simulate").info("simulation starts at frame {} ({} mode, {}, dt {} ms, critical dt {:.3f} ms)",
+                            packet.index, setup_->options.mode, setup_->options.precision, 1e3 * options.dt_s,
+                            1e3 * fem_->stability().dt_critical_s);
   }
   std::shared_ptr<stages::FemFrameOutput> output = FreeOutput();
   fem_->Process(static_cast<int>(packet.index - first_frame_), packet.targets, output.get());

@@ -28,18 +28,32 @@ FemStage::FemStage(const Options& options, const sim::TetMesh& mesh, const sim::
   coupled.solver.damping_per_s = options_.damping_per_s;
   coupled.phase_at_start = options_.phase_at_first_frame;
   coupled.concurrent = options_.concurrent;
-  simulation_ = std::make_unique<sim::CoupledSimulation<float>>(
-      std::make_shared<const sim::TledModel<float>>(mesh, material), std::move(motion), fixed_nodes, coupled);
+  if (options_.double_precision) {
+    simulation_ = std::make_unique<sim::CoupledSimulation<double>>(
+        std::make_shared<const sim::TledModel<double>>(mesh, material), std::move(motion), fixed_nodes, coupled);
+  } else {
+    simulation_ = std::make_unique<sim::CoupledSimulation<float>>(
+        std::make_shared<const sim::TledModel<float>>(mesh, material), std::move(motion), fixed_nodes, coupled);
+  }
   sampled_nodes_ = SampledNodeIds(mesh.num_nodes(), options_.sampled_nodes);
 }
 
 Eigen::Matrix3Xd FemStage::first_displacement_S_m() const {
   Eigen::Matrix3Xd u = Eigen::Matrix3Xd::Zero(3, reference_S_m_.cols());
-  const std::span<const float> start = simulation_->displacement();
-  for (Eigen::Index a = 0; a < u.cols(); ++a) {
-    for (int i = 0; i < 3; ++i) u(i, a) = start[3 * a + i];
-  }
+  std::visit(
+      [&](const auto& simulation) {
+        const auto start = simulation->displacement();
+        for (Eigen::Index a = 0; a < u.cols(); ++a) {
+          for (int i = 0; i < 3; ++i) u(i, a) = start[3 * a + i];
+        }
+      },
+      simulation_);
   return u;
+}
+
+const sim::StabilityReport& FemStage::stability() const {
+  return std::visit([](const auto& simulation) -> const sim::StabilityReport& { return simulation->stability(); },
+                    simulation_);
 }
 
 FemFrameOutput FemStage::Process(int frame, const NodeTargets& targets) {
@@ -59,7 +73,12 @@ void FemStage::Process(int frame, const NodeTargets& targets, FemFrameOutput* in
                 "FEM stage, frame " + std::to_string(frame), "give 3 values per constrained node");
   }
   last_frame_ = frame;
-  sim::CoupledSimulation<float>& simulation = *simulation_;
+  std::visit([&](auto& simulation) { Step(*simulation, frame, targets, into); }, simulation_);
+}
+
+template <typename T>
+void FemStage::Step(sim::CoupledSimulation<T>& simulation, int frame, const NodeTargets& targets,
+                    FemFrameOutput* into) {
   const long long step = std::llround(frame / (options_.fps * options_.dt_s));
   const long long substeps = step - simulation.steps_taken();
   // In surface mode nothing but the constraints drives the mesh; in volume
@@ -76,7 +95,7 @@ void FemStage::Process(int frame, const NodeTargets& targets, FemFrameOutput* in
   record.step = simulation.steps_taken();
   record.time_s = simulation.time_s();
   record.substeps = static_cast<int>(substeps);
-  const std::span<const float> u = simulation.displacement();
+  const std::span<const T> u = simulation.displacement();
   output.nodes_S_m = reference_S_m_;
   for (Eigen::Index a = 0; a < output.nodes_S_m.cols(); ++a) {
     for (int i = 0; i < 3; ++i) output.nodes_S_m(i, a) += u[3 * a + i];

@@ -2,6 +2,7 @@
 
 #include <memory>
 #include <string>
+#include <variant>
 #include <vector>
 
 #include <Eigen/Core>
@@ -39,7 +40,8 @@ struct FemFrameOutput {
 // the image-constrained simulation (sim/coupled_simulation.h) to step
 // round(t_j / dt), t_j = j / fps, with the constrained nodes' targets
 // interpolated linearly across the frame's substeps (166 or 167 at 30 fps and
-// 0.2 ms), so the simulation clock never drifts from the video's. Runs in float.
+// 0.2 ms), so the simulation clock never drifts from the video's. Runs in
+// float, as the paper's GPU solver did, or in double when asked.
 // Stateful: frames in increasing order, one at a time (a serial node).
 class FemStage {
  public:
@@ -51,6 +53,7 @@ class FemStage {
     double phase_at_first_frame = 0;   // the registration's cardiac phase of frame 0
     int sampled_nodes = 256;           // nodes logged per frame (SampledNodeIds)
     bool concurrent = true;            // inverse beside forward (false: one after the other)
+    bool double_precision = false;     // the simulation in double instead of float
     std::string Validate() const;      // empty when valid
   };
 
@@ -71,13 +74,16 @@ class FemStage {
   void Process(int frame, const NodeTargets& targets, FemFrameOutput* output);
 
   const std::vector<int>& sampled_nodes() const { return sampled_nodes_; }
-  const sim::StabilityReport& stability() const { return simulation_->stability(); }
-  const sim::CoupledSimulation<float>& simulation() const { return *simulation_; }
+  const sim::StabilityReport& stability() const;
 
  private:
+  template <typename T>
+  void Step(sim::CoupledSimulation<T>& simulation, int frame, const NodeTargets& targets, FemFrameOutput* into);
+
   Options options_;
   Eigen::Matrix3Xd reference_S_m_;
-  std::unique_ptr<sim::CoupledSimulation<float>> simulation_;
+  std::variant<std::unique_ptr<sim::CoupledSimulation<float>>, std::unique_ptr<sim::CoupledSimulation<double>>>
+      simulation_;
   std::vector<int> sampled_nodes_;
   int last_frame_ = -1;
 };

@@ -139,6 +139,7 @@ TEST_CASE("scene: simulation and registration", "[io][unit]") {
   REQUIRE(scene.simulation->dt_s == 1e-4);
   REQUIRE_FALSE(scene.simulation->concurrent);
   REQUIRE(scene.simulation->damping_per_s == 75);  // the paper's alpha by default
+  REQUIRE(scene.simulation->precision == "float");
   REQUIRE(scene.registration->cycles == 2);
   REQUIRE(scene.registration->file.empty());
 
@@ -153,6 +154,9 @@ TEST_CASE("scene: simulation and registration", "[io][unit]") {
   dir = MakeSceneDir("dg_scene_test_sim", kScene + std::string("simulation:\n  mode: rigid\n"));
   REQUIRE_THROWS_WITH(ReadScene((dir / "scene.yaml").string()),
                       Catch::Contains("unknown simulation mode 'rigid'") && Catch::Contains("simulation.mode"));
+  dir = MakeSceneDir("dg_scene_test_sim", kScene + std::string("simulation:\n  precision: half\n"));
+  REQUIRE_THROWS_WITH(ReadScene((dir / "scene.yaml").string()),
+                      Catch::Contains("unknown precision 'half'") && Catch::Contains("simulation.precision"));
   dir = MakeSceneDir("dg_scene_test_sim", kScene + std::string("simulation:\n  dt: 2e-4\n"));
   REQUIRE_THROWS_WITH(ReadScene((dir / "scene.yaml").string()), Catch::Contains("simulation.dt"));
   dir = MakeSceneDir("dg_scene_test_sim", kScene + std::string("registration:\n  cycles: 0.5\n"));
