@@ -99,7 +99,9 @@ TEST_CASE("eval runtime: the default design is one factor at a time around the b
   std::set<int> meshes_at_baseline_step;
   std::set<double> steps_on_own_mesh;
   std::set<int> threads_at_baseline, features_at_baseline;
+  std::set<std::string> precisions;
   for (const SweepPoint& p : design) {
+    precisions.insert(p.precision);
     names.insert(p.Name());
     const bool baseline_features = p.target_features == 500;
     if (p.dt_s == 2e-4 && p.threads == 2 && baseline_features) meshes_at_baseline_step.insert(p.target_tets);
@@ -115,6 +117,7 @@ TEST_CASE("eval runtime: the default design is one factor at a time around the b
   CHECK(steps_on_own_mesh == std::set<double>{1e-4, 2e-4, 3e-4, 4e-4, 5e-4});
   CHECK(threads_at_baseline == std::set<int>{1, 2});
   CHECK(features_at_baseline == std::set<int>{250, 500, 1000});
+  CHECK(precisions == std::set<std::string>{"float", "double"});
 }
 
 namespace {
@@ -276,6 +279,7 @@ TEST_CASE("eval runtime: the quick sweep on the tiny phantom, its table recomput
     CHECK(Number(row, "dt_ms") == Approx(p.plan.point.dt_s * 1e3));
     CHECK(Number(row, "threads") == p.plan.point.threads);
     CHECK(Number(row, "target_features") == p.plan.point.target_features);
+    CHECK(row.at("precision") == p.plan.point.precision);
   }
   CHECK(logs == static_cast<int>(DesignSweep(true).size()));
 
@@ -294,9 +298,12 @@ TEST_CASE("eval runtime: the quick sweep on the tiny phantom, its table recomput
   // mesher's target within its tolerance, and its interior error is of the
   // phantom's own mesh's order (a motion recorded for the wrong nodes would
   // be centimetres off).
-  const auto point = [&](int tets, double dt_s) -> const PointResult& {
+  const auto point = [&](int tets, double dt_s, const std::string& precision = "float") -> const PointResult& {
     for (const PointResult& p : result.points) {
-      if (p.plan.point.target_tets == tets && std::abs(p.plan.point.dt_s - dt_s) < 1e-9) return p;
+      if (p.plan.point.target_tets == tets && std::abs(p.plan.point.dt_s - dt_s) < 1e-9 &&
+          p.plan.point.precision == precision) {
+        return p;
+      }
     }
     FAIL("no point " << tets << " tets, dt " << dt_s);
     return result.points.front();
@@ -317,6 +324,12 @@ TEST_CASE("eval runtime: the quick sweep on the tiny phantom, its table recomput
   // the tiny phantom, 1e-4 mm on the default one.)
   const double fine = point(0, 1e-4).errors.internal_rms_mm, coarse = point(0, 4e-4).errors.internal_rms_mm;
   CHECK(fine <= coarse + 0.002);
+
+  // Precision: float resolves 3e-9 m at the phantom's 5 cm, so the double
+  // run's errors are the float run's to far below a micrometre (the FEM
+  // stage's own test: 0.001 um apart after a second).
+  CHECK(point(0, 2e-4, "double").errors.internal_rms_mm ==
+        Approx(point(0, 2e-4).errors.internal_rms_mm).margin(1e-3));
 
   // The same tables from the logs alone, as after --emit-jobs (`dynaguide report DIR` tells a sweep by its points).
   CHECK(IsRuntimeSweepDir(options.out_dir));

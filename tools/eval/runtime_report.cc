@@ -16,7 +16,6 @@ namespace {
 namespace fs = std::filesystem;
 
 // What every point shares because the graph fixes it (see runtime_sweep.h).
-constexpr const char* kPrecision = "float";
 
 std::string Status(const PointResult& p) {
   if (p.plan.refused) {
@@ -75,7 +74,8 @@ std::string RecommendationText(const RuntimeResult& result) {
       "For real time on two cores, pick %s: %d tetrahedra, dt %.2f ms, %s, %d target features, "
       "2 threads, the most accurate point that keeps up (internal RMS %.3f mm, surface RMS %.3f mm, "
       "%.2fx real time while simulating).",
-      p.plan.point.Name().c_str(), p.plan.tets, p.plan.point.dt_s * 1e3, kPrecision, p.plan.point.target_features,
+      p.plan.point.Name().c_str(), p.plan.tets, p.plan.point.dt_s * 1e3, p.plan.point.precision.c_str(),
+      p.plan.point.target_features,
       p.errors.internal_rms_mm, p.errors.surface_rms_mm, p.simulating_realtime_factor);
 }
 
@@ -110,11 +110,8 @@ std::string WriteRuntimeReport(const RuntimeResult& result, const std::string& o
         "\n\n";
   md +=
       "Design: one factor at a time around the baseline (the phantom's own mesh, dt 0.2 ms, 500 target "
-      "features, 2 threads), plus a few combinations toward real time; not a full factorial. Fixed in every "
-      "point, because the graph offers no other choice yet: the FEM kernel in " +
-      std::string(kPrecision) +
-      ". A time step above the guard's limit is refused, not run (the run's coupled simulation cannot "
-      "substep).\n\n";
+      "features, 2 threads, float), plus a few combinations toward real time; not a full factorial. A time "
+      "step above the guard's limit is refused, not run (the run's coupled simulation cannot substep).\n\n";
   md += (result.window_frames < 0
              ? std::string("No point has run yet. ")
              : Printed("Errors over the first %d simulated frames of every run (the protocol's window: --cycles "
@@ -149,7 +146,7 @@ std::string WriteRuntimeReport(const RuntimeResult& result, const std::string& o
       md += Status(p) + " | | | | | | | | |\n";
     }
     csv += p.plan.point.Name() + "," + std::to_string(p.plan.tets) + "," + std::to_string(p.plan.nodes) + "," +
-           Printed("%.4f,%d,%s,%d,%.6f,", p.plan.point.dt_s * 1e3, p.plan.point.threads, kPrecision,
+           Printed("%.4f,%d,%s,%d,%.6f,", p.plan.point.dt_s * 1e3, p.plan.point.threads, p.plan.point.precision.c_str(),
                    p.plan.point.target_features, p.plan.dt_critical_s * 1e3) +
            CsvQuoted(Status(p)) +
            Printed(",%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%d,%d,%.2f", e.surface_avg_mm, e.surface_max_mm,
@@ -201,7 +198,7 @@ void WriteRuntimeJson(const RuntimeResult& result, const std::string& path) {
         "\"internal_rms_mm\": %.6g, \"realtime_factor\": %.6g, \"simulating_realtime_factor\": %.6g, "
         "\"pareto\": %s, \"recommended\": %s}%s\n",
         JsonQuoted(p.plan.point.Name()).c_str(), p.plan.tets, p.plan.point.dt_s * 1e3, p.plan.point.threads,
-        JsonQuoted(kPrecision).c_str(), p.plan.point.target_features, JsonQuoted(Status(p)).c_str(), e.surface_avg_mm,
+        JsonQuoted(p.plan.point.precision).c_str(), p.plan.point.target_features, JsonQuoted(Status(p)).c_str(), e.surface_avg_mm,
         e.surface_max_mm, e.surface_rms_mm, e.internal_avg_mm, e.internal_max_mm, e.internal_rms_mm, p.realtime_factor,
         p.simulating_realtime_factor, p.pareto ? "true" : "false", result.recommended == k ? "true" : "false",
         k + 1 < result.points.size() ? "," : "");

@@ -27,23 +27,25 @@ struct SweepPoint {
   double dt_s = 2e-4;
   int target_features = 500;  // the tracker's (pipeline::FrontEndSettings)
   int threads = 2;
+  std::string precision = "float";  // the simulation's (scene key simulation.precision)
   // Unique and stable, the run's directory: e.g. "tets8000_dt0.20ms_f500_threads2"
-  // ("tets-own_..." for the scene's own mesh).
+  // ("tets-own_..." for the scene's own mesh; "_double" appended in double).
   std::string Name() const;
 };
 
 // One-factor-at-a-time around a baseline, plus a few combinations (a full
 // factorial of 5 meshes x 5 steps x 3 feature counts x 2 thread counts is 150
-// runs; this is 16):
+// runs; this is 17):
 //   baseline: the phantom's own 8k mesh, dt 0.2 ms, 500 features, 2 threads;
 //   mesh 2k, 4k, 16k, 32k; dt 0.1, 0.3, 0.4, 0.5 ms; 250 and 1000 features; 1 thread;
+//   double precision;
 //   combinations toward real time: 4k at 0.4 ms on 2 and 1 threads, 2k at
 //   0.5 ms, 16k at 0.3 ms.
 // Steps above a mesh's limit are refused by the guard and reported, not run
 // (on the default phantom the own 8k mesh's dt_cr is about 0.40 ms, so 0.4
 // and 0.5 ms are refused there).
-// Quick (tests): the tiny phantom's own mesh at dt 0.1, 0.2, 0.4 ms and a 3k
-// mesh at 0.2 ms, all with 500 features on 2 threads.
+// Quick (tests): the tiny phantom's own mesh at dt 0.1, 0.2, 0.4 ms (and 0.2
+// in double) and a 3k mesh at 0.2 ms, all with 500 features on 2 threads.
 std::vector<SweepPoint> DesignSweep(bool quick);
 
 // What the guard (sim/tled_solver.h, TimeStepPolicy::kRefuse, the policy of
