@@ -3,7 +3,6 @@
 // tiny phantom end to end, its CSV recomputed from the run logs through the
 // plain HDF5 C API.
 #include <algorithm>
-#include <catch2/catch.hpp>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -11,8 +10,11 @@
 #include <set>
 #include <sstream>
 
+#include <catch2/catch.hpp>
+
 #include "tests/support/h5_plain.h"
 #include "tests/support/tiny_phantom.h"
+#include "tests/support/window_errors.h"
 #include "tools/eval/runtime_report.h"
 #include "tools/eval/runtime_sweep.h"
 
@@ -155,7 +157,7 @@ std::map<std::string, std::map<std::string, std::string>> ReadCsv(const std::str
 // One run log's figures, recomputed from its datasets as the report defines
 // them, written out independently of tools/eval and tools/report.
 struct Recomputed {
-  double surface_avg = 0, surface_max = 0, surface_rms = 0, internal_avg = 0, internal_max = 0, internal_rms = 0;
+  testing::WindowErrors errors;
   double realtime_factor = 0, simulating_realtime_factor = 0;
   std::map<int, double> stage_median_ms;
   std::vector<std::string> stage_names;
@@ -181,30 +183,7 @@ Recomputed Recompute(const std::string& log, int window) {
   REQUIRE(file >= 0);
   Recomputed r;
   const std::vector<double> frame = Doubles(file, "/errors/frame");
-  const std::vector<double> n = Doubles(file, "/errors/surface_points");
-  const std::vector<double> mean = Doubles(file, "/errors/surface_mean_mm");
-  const std::vector<double> rms = Doubles(file, "/errors/surface_rms_mm");
-  const std::vector<double> max = Doubles(file, "/errors/surface_max_mm");
-  const std::vector<double> internal = Doubles(file, "/errors/internal_mm");
-  const size_t points = internal.size() / n.size();
-  REQUIRE(static_cast<int>(n.size()) >= window);
-  double total = 0, sum = 0, squares = 0, internal_sum = 0, internal_squares = 0;
-  for (int k = 0; k < window; ++k) {
-    total += n[k];
-    sum += n[k] * mean[k];
-    squares += n[k] * rms[k] * rms[k];
-    r.surface_max = std::max(r.surface_max, max[k]);
-    for (size_t p = 0; p < points; ++p) {
-      const double e = internal[k * points + p];
-      internal_sum += e;
-      internal_squares += e * e;
-      r.internal_max = std::max(r.internal_max, e);
-    }
-  }
-  r.surface_avg = sum / total;
-  r.surface_rms = std::sqrt(squares / total);
-  r.internal_avg = internal_sum / (window * points);
-  r.internal_rms = std::sqrt(internal_squares / (window * points));
+  r.errors = testing::ReadWindowErrors(file, window);
 
   // Cost: video seconds per wall second, for the whole run and between the
   // first and last simulated frames leaving the last stage (the sink).
@@ -265,12 +244,12 @@ TEST_CASE("eval runtime: the quick sweep on the tiny phantom, its table recomput
     ++logs;
     const Recomputed r = Recompute(log, result.window_frames);
     const auto& row = rows.at(name);
-    CHECK(Number(row, "surface_avg_mm") == Approx(r.surface_avg).margin(1e-6));
-    CHECK(Number(row, "surface_max_mm") == Approx(r.surface_max).margin(1e-6));
-    CHECK(Number(row, "surface_rms_mm") == Approx(r.surface_rms).margin(1e-6));
-    CHECK(Number(row, "internal_avg_mm") == Approx(r.internal_avg).margin(1e-6));
-    CHECK(Number(row, "internal_max_mm") == Approx(r.internal_max).margin(1e-6));
-    CHECK(Number(row, "internal_rms_mm") == Approx(r.internal_rms).margin(1e-6));
+    CHECK(Number(row, "surface_avg_mm") == Approx(r.errors.surface_avg).margin(1e-6));
+    CHECK(Number(row, "surface_max_mm") == Approx(r.errors.surface_max).margin(1e-6));
+    CHECK(Number(row, "surface_rms_mm") == Approx(r.errors.surface_rms).margin(1e-6));
+    CHECK(Number(row, "internal_avg_mm") == Approx(r.errors.internal_avg).margin(1e-6));
+    CHECK(Number(row, "internal_max_mm") == Approx(r.errors.internal_max).margin(1e-6));
+    CHECK(Number(row, "internal_rms_mm") == Approx(r.errors.internal_rms).margin(1e-6));
     CHECK(Number(row, "realtime_factor") == Approx(r.realtime_factor).margin(1e-6));
     CHECK(Number(row, "simulating_realtime_factor") == Approx(r.simulating_realtime_factor).margin(1e-6));
     for (const auto& [stage, median_ms] : r.stage_median_ms) {

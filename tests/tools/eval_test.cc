@@ -11,6 +11,7 @@
 
 #include "tests/support/h5_plain.h"
 #include "tests/support/tiny_phantom.h"
+#include "tests/support/window_errors.h"
 #include "tools/eval/protocol.h"
 
 namespace dg::tools {
@@ -19,41 +20,12 @@ namespace {
 namespace fs = std::filesystem;
 using namespace dg::testing::h5_plain;
 
-// Table 1's row of one run log, over its first `window` simulated frames,
-// written out independently of tools/eval.
-struct Row {
-  double surface_avg = 0, surface_max = 0, surface_rms = 0, internal_avg = 0, internal_max = 0, internal_rms = 0;
-};
-
-Row RecomputeRow(const std::string& log, int window) {
+// Table 1's row of one run log, over its first `window` simulated frames.
+testing::WindowErrors RecomputeRow(const std::string& log, int window) {
   const hid_t file = H5Fopen(log.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
   REQUIRE(file >= 0);
-  const std::vector<double> n = Doubles(file, "/errors/surface_points");
-  const std::vector<double> mean = Doubles(file, "/errors/surface_mean_mm");
-  const std::vector<double> rms = Doubles(file, "/errors/surface_rms_mm");
-  const std::vector<double> max = Doubles(file, "/errors/surface_max_mm");
-  const std::vector<double> internal = Doubles(file, "/errors/internal_mm");
-  const size_t points = internal.size() / n.size();
+  const testing::WindowErrors row = testing::ReadWindowErrors(file, window);
   H5Fclose(file);
-  REQUIRE(static_cast<int>(n.size()) >= window);
-  Row row;
-  double total = 0, sum = 0, squares = 0, internal_sum = 0, internal_squares = 0;
-  for (int r = 0; r < window; ++r) {
-    total += n[r];
-    sum += n[r] * mean[r];
-    squares += n[r] * rms[r] * rms[r];
-    row.surface_max = std::max(row.surface_max, max[r]);
-    for (size_t p = 0; p < points; ++p) {
-      const double e = internal[r * points + p];
-      internal_sum += e;
-      internal_squares += e * e;
-      row.internal_max = std::max(row.internal_max, e);
-    }
-  }
-  row.surface_avg = sum / total;
-  row.surface_rms = std::sqrt(squares / total);
-  row.internal_avg = internal_sum / (window * points);
-  row.internal_rms = std::sqrt(internal_squares / (window * points));
   return row;
 }
 
@@ -96,7 +68,7 @@ TEST_CASE("eval protocol: the tiny phantom in three modes, its tables recomputed
 
   for (size_t m = 0; m < ProtocolModes().size(); ++m) {
     const std::string& mode = ProtocolModes()[m];
-    const Row row = RecomputeRow(options.out_dir + "/runs/" + result.scenes.front() + "/" + mode + "/run.h5",
+    const testing::WindowErrors row = RecomputeRow(options.out_dir + "/runs/" + result.scenes.front() + "/" + mode + "/run.h5",
                                  result.window_frames);
     const ErrorFigures& figures = result.per_mode[m];
     CHECK(figures.surface_avg_mm == Approx(row.surface_avg).epsilon(1e-9));
