@@ -180,7 +180,8 @@ void XdmfTimeSeriesWriter::Impl::WriteGrid(std::ostream& xml, const std::string&
     xml << indent << "  <Attribute Name=\"" << attribute.name << "\" AttributeType=\""
         << AttributeType(attribute.components) << "\" Center=\"" << attribute.center << "\">\n";
     std::string dims = std::to_string(attribute.rows);
-    if (attribute.components > 1) dims += " " + std::to_string(attribute.components);
+    // Appended, not `" " + std::to_string(...)`: GCC 12 warns falsely (-Wrestrict) on that.
+    if (attribute.components > 1) (dims += ' ') += std::to_string(attribute.components);
     item(dims, "Float", 8, attribute.dataset);
     xml << indent << "  </Attribute>\n";
   }
@@ -237,7 +238,8 @@ std::vector<Attribute> XdmfTimeSeriesWriter::Impl::WriteStep(hid_t group, const 
     if (kind.data->empty()) continue;
     Handle subgroup(CreateGroup(group, kind.group, h5_path), H5Gclose);
     for (const auto& [name, values] : *kind.data) {
-      write(subgroup.get(), "/" + std::string(kind.group) + "/", name, kind.center, values.data(),
+      // Appended, not `"/" + std::string(...)`: GCC 12 warns falsely (-Wrestrict) on that.
+      write(subgroup.get(), std::string("/").append(kind.group).append("/"), name, kind.center, values.data(),
             values.cols(), values.rows());
     }
   }
