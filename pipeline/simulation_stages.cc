@@ -73,10 +73,12 @@ ConstraintAdapter::ConstraintAdapter(std::shared_ptr<const SimulationSetup> setu
 void ConstraintAdapter::Process(FramePacket& packet) {
   if (!registration_) registration_ = packet.registration;
   packet.registration = registration_;
-  packet.targets.nodes.clear();
-  packet.targets.displacement_S_m.clear();
-  packet.targets.features.clear();
-  if (!registration_) return;  // before the registration: nothing to tie to
+  if (!registration_) {  // before the registration: nothing to tie to
+    packet.targets.nodes.clear();
+    packet.targets.displacement_S_m.clear();
+    packet.targets.features.clear();
+    return;
+  }
   if (!mapper_) {
     // The mesh's geometry at this frame: the scan's motion at the registered phase.
     const sim::TetMesh& mesh = setup_->mesh;
@@ -91,7 +93,7 @@ void ConstraintAdapter::Process(FramePacket& packet) {
                                                          setup_->fixed_nodes,
                                                          Eigen::Isometry3d(registration_->T_C_S));
   }
-  packet.targets = mapper_->Process(packet.tracks.points);
+  mapper_->Process(packet.tracks.points, &packet.targets);  // into the packet's lists, reused
 }
 
 std::shared_ptr<stages::FemFrameOutput> FemAdapter::FreeOutput() {

@@ -59,6 +59,12 @@ ConstraintMapper::ConstraintMapper(const Options& options, const Eigen::Matrix3X
 }
 
 NodeTargets ConstraintMapper::Process(const std::vector<TrackedPoint>& points) {
+  NodeTargets targets;
+  Process(points, &targets);
+  return targets;
+}
+
+void ConstraintMapper::Process(const std::vector<TrackedPoint>& points, NodeTargets* targets) {
   if (first_) {
     first_ = false;
     std::vector<bool> node_tied(count_.size(), false);
@@ -74,7 +80,10 @@ NodeTargets ConstraintMapper::Process(const std::vector<TrackedPoint>& points) {
     }
     tied_nodes_ = static_cast<int>(std::count(node_tied.begin(), node_tied.end(), true));
   }
-  std::vector<int> touched;
+  std::vector<int>& touched = targets->nodes;  // sorted below: the constrained nodes
+  touched.clear();
+  targets->displacement_S_m.clear();
+  targets->features.clear();
   for (const TrackedPoint& point : points) {
     const auto tie = ties_.find(point.id);
     if (tie == ties_.end()) continue;
@@ -87,15 +96,12 @@ NodeTargets ConstraintMapper::Process(const std::vector<TrackedPoint>& points) {
     ++count_[a];
   }
   std::sort(touched.begin(), touched.end());
-  NodeTargets targets;
-  targets.nodes = touched;
   for (int a : touched) {
     const Eigen::Vector3d u = first_displacement_S_m_.col(a) + sum_[a] / count_[a];
-    targets.displacement_S_m.insert(targets.displacement_S_m.end(), u.data(), u.data() + 3);
-    targets.features.push_back(count_[a]);
+    targets->displacement_S_m.insert(targets->displacement_S_m.end(), u.data(), u.data() + 3);
+    targets->features.push_back(count_[a]);
     count_[a] = 0;
   }
-  return targets;
 }
 
 }  // namespace dg::stages

@@ -50,6 +50,8 @@ class ConstraintMapper {
 
   // The first call ties the features; every call returns this frame's targets.
   NodeTargets Process(const std::vector<TrackedPoint>& points);
+  // The same into `targets`, reusing its lists.
+  void Process(const std::vector<TrackedPoint>& points, NodeTargets* targets);
 
   int tied_features() const { return static_cast<int>(ties_.size()); }
   int untied_features() const { return untied_; }  // too far from the surface at the first frame

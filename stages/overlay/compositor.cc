@@ -1,6 +1,7 @@
 #include "stages/overlay/compositor.h"
 
 #include <algorithm>
+#include <array>
 
 #if defined(__AVX512F__) && defined(__AVX512BW__) && defined(__AVX512VL__)
 #include <immintrin.h>
@@ -87,6 +88,7 @@ void ComposeRow(const RowJob& job) {
 }  // namespace
 
 std::string CompositorOptions::Validate() const {
+  if (layers.size() > kMaxLayers) return "more than " + std::to_string(kMaxLayers) + " overlays";
   for (size_t i = 0; i < layers.size(); ++i) {
     if (layers[i].name.empty()) return "layer " + std::to_string(i) + " has no name";
     for (size_t j = 0; j < i; ++j) {
@@ -125,18 +127,22 @@ CompositeFrame Compositor::Compose(const cv::Mat& video_bgr, std::int64_t frame)
 
 void Compositor::Compose(const cv::Mat& video_bgr, std::int64_t frame, cv::Mat* composite_bgr,
                          std::vector<std::int64_t>* layer_age_frames) const {
-  const std::string where = "compositor, frame " + std::to_string(frame);
-  if (video_bgr.type() != CV_8UC3) throw Error("the video frame is not 8-bit BGR", where, "pass the captured colour frame");
-  std::vector<OverlayLayer> layers;
+  const auto where = [frame] { return "compositor, frame " + std::to_string(frame); };
+  if (video_bgr.type() != CV_8UC3) throw Error("the video frame is not 8-bit BGR", where(), "pass the captured colour frame");
+  // On the stack, not in vectors: a frame allocates nothing here (and a
+  // thread_local would hold the layers, and so the overlays' pooled images).
+  std::array<OverlayLayer, CompositorOptions::kMaxLayers> layers;
   {
     std::lock_guard lock(mutex_);
-    layers = latest_;  // headers only: a handed-over layer is never written again
+    // Headers only: a handed-over layer is never written again.
+    std::copy(latest_.begin(), latest_.end(), layers.begin());
   }
   composite_bgr->create(video_bgr.size(), CV_8UC3);  // no-op when it has that size and type already
   if (layer_age_frames) layer_age_frames->clear();
-  std::vector<const OverlayLayer*> used;
-  std::vector<std::uint8_t> salient;  // per used layer
-  for (size_t i = 0; i < layers.size(); ++i) {
+  std::array<const OverlayLayer*, CompositorOptions::kMaxLayers> used_layers;
+  std::array<std::uint8_t, CompositorOptions::kMaxLayers> salient;  // per used layer
+  size_t used = 0;
+  for (size_t i = 0; i < options_.layers.size(); ++i) {
     const OverlayLayer& layer = layers[i];
     const bool usable = !layer.empty() && layer.frame <= frame;
     if (layer_age_frames) layer_age_frames->push_back(usable ? frame - layer.frame : -1);
@@ -145,11 +151,11 @@ void Compositor::Compose(const cv::Mat& video_bgr, std::int64_t frame, cv::Mat* 
       throw Error("overlay '" + options_.layers[i].name + "' has a " + std::to_string(layer.bgra.cols) + "x" +
                       std::to_string(layer.bgra.rows) + " layer for a " + std::to_string(video_bgr.cols) + "x" +
                       std::to_string(video_bgr.rows) + " frame",
-                  where, "render the overlays with the video's calibration (image_size)");
-    used.push_back(&layer);
-    salient.push_back(options_.layers[i].blend == BlendMode::kInverseRealism);
+                  where(), "render the overlays with the video's calibration (image_size)");
+    used_layers[used] = &layer;
+    salient[used++] = options_.layers[i].blend == BlendMode::kInverseRealism;
   }
-  const bool saliency_needed = std::find(salient.begin(), salient.end(), 1) != salient.end();
+  const bool saliency_needed = std::find(salient.begin(), salient.begin() + used, 1) != salient.begin() + used;
   const int rows = video_bgr.rows, bands = (rows + kBandRows - 1) / kBandRows;
   tbb::parallel_for(tbb::blocked_range<int>(0, bands), [&](const tbb::blocked_range<int>& range) {
     // Kept for the thread's next band. Filled after SaliencyBand, which may wait on a
@@ -159,15 +165,15 @@ void Compositor::Compose(const cv::Mat& video_bgr, std::int64_t frame, cv::Mat* 
     for (int band = range.begin(); band < range.end(); ++band) {
       const int y_begin = band * kBandRows, y_end = std::min(rows, y_begin + kBandRows);
       if (saliency_needed) SaliencyBand(video_bgr, options_.inverse_realism, y_begin, y_end, &saliency);
-      layer_rows.resize(used.size());
+      layer_rows.resize(used);
       for (int y = y_begin; y < y_end; ++y) {
-        for (size_t l = 0; l < used.size(); ++l) layer_rows[l] = used[l]->bgra.ptr<float>(y);
+        for (size_t l = 0; l < used; ++l) layer_rows[l] = used_layers[l]->bgra.ptr<float>(y);
         const RowJob job{video_bgr.ptr<std::uint8_t>(y),
                          composite_bgr->ptr<std::uint8_t>(y),
                          video_bgr.cols,
                          layer_rows.data(),
                          salient.data(),
-                         static_cast<int>(used.size()),
+                         static_cast<int>(used),
                          saliency_needed ? saliency.ptr<float>(y - y_begin) : nullptr,
                          options_.inverse_realism.strength};
         ComposeRow(job);

@@ -23,8 +23,11 @@ struct CompositorOptions {
     std::string name;
     BlendMode blend = BlendMode::kAlpha;
   };
-  std::vector<Entry> layers;
+  std::vector<Entry> layers;  // at most kMaxLayers
   InverseRealismOptions inverse_realism;
+
+  // Compose() keeps its per-frame lists on the stack, so it allocates nothing.
+  static constexpr int kMaxLayers = 8;
 
   // Empty when valid; otherwise what is wrong.
   std::string Validate() const;
