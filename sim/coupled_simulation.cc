@@ -3,31 +3,10 @@
 #include <algorithm>
 #include <cmath>
 
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
-#include <tbb/partitioner.h>
-
 #include "sim/error.h"
 #include "sim/tled_kernel.h"
 
 namespace dg::sim {
-namespace {
-
-// Runs body(c) for c in [0, count) under tbb::parallel_for; the auto
-// partitioner hands chunks to whichever thread is free, so a thread the
-// machine delays (a shared virtual core) takes fewer of them.
-template <typename Body>
-void ForEachChunk(int count, Body body) {
-  tbb::parallel_for(
-      tbb::blocked_range<int>(0, count),
-      [&](const tbb::blocked_range<int>& range) {
-        for (int c = range.begin(); c != range.end(); ++c) body(c);
-      },
-      tbb::auto_partitioner());
-}
-
-}  // namespace
-
 std::string ToString(SimulationMode mode) {
   switch (mode) {
     case SimulationMode::kSurface: return "surface";
@@ -91,6 +70,7 @@ CoupledSimulation<T>::CoupledSimulation(std::shared_ptr<const TledModel<T>> mode
     motion_->Evaluate<double>(motion_->PhaseAt(-options_.solver.dt_s, options_.phase_at_start), before);
     for (size_t i = 0; i < u0.size(); ++i) v0[i] = (u0[i] - before[i]) / options_.solver.dt_s;
   }
+  team_ = std::make_shared<StepTeam>(DefaultTeamSize());
   BuildSolver(u0, v0);
 
   if (has_inverse()) {
@@ -117,7 +97,7 @@ void CoupledSimulation<T>::BuildSolver(std::span<const double> u_m, std::span<co
   for (int a : constrained_nodes_) {
     for (int i = 0; i < 3; ++i) conditions.prescribed_dofs.push_back(3 * a + i);
   }
-  solver_ = std::make_unique<TledSolver<T>>(model_, std::move(conditions), options_.solver, &stability_);
+  solver_ = std::make_unique<TledSolver<T>>(model_, std::move(conditions), options_.solver, &stability_, team_);
   DG_CHECK(solver_->substeps_per_step() == 1);  // kSubstep is refused
   solver_->SetState(u_m, v_m_s);
 }
@@ -147,50 +127,62 @@ void CoupledSimulation<T>::MotionAtStep(long long step, std::span<T> out) const 
 }
 
 template <typename T>
-void CoupledSimulation<T>::Step(std::span<const double> targets_m) {
+void CoupledSimulation<T>::AdvanceCoupled(int steps) {
   TledSolver<T>& solver = *solver_;
-  if (!has_inverse()) {
-    solver.Advance(1, targets_m);
-    return;
-  }
   InverseSimulation<T>& inverse = *inverse_;
   DG_CHECK(inverse.level() == steps_);
-  solver.SetTargets(targets_m);
+  DG_CHECK(solver.node_chunks() == inverse.node_chunks());
   solver.SetElementLoads(inverse.weights().data());
-  const int forward_elements = solver.element_chunks(), forward_nodes = solver.node_chunks();
-  if (options_.concurrent) {
-    // Both sides' element chunks in one loop, then the node chunks of both:
-    // TBB's auto partitioner balances them, and each pass joins once.
-    ForEachChunk(forward_elements + inverse.element_chunks(), [&](int c) {
-      if (c < forward_elements) {
-        solver.ElementChunk(c);
+  const TledModel<T>& model = *model_;
+  const int element_chunks = solver.element_chunks(), node_chunks = solver.node_chunks();
+  // The step's end: the inverse side's checks and next weights, the forward
+  // side's reductions and checks (in a barrier's serial section).
+  auto finish = [&] {
+    inverse.Finish();
+    solver.SetElementLoads(inverse.weights().data());
+    solver.FinishStep();
+    solver.CheckStep();
+    ++steps_;
+  };
+  StepTeam& team = *team_;
+  team.Run([&](int worker) {
+    for (int s = 0; s < steps; ++s) {
+      const double fraction_end = double(s + 1) / steps;
+      if (options_.concurrent) {
+        // Both sides' element chunks in one pass, interleaved so that a
+        // worker's home range holds both sides' elements of the same nodes.
+        team.ForEachChunk(worker, 2 * element_chunks, [&](int c) {
+          if (c % 2 == 0) {
+            solver.ElementChunk(c / 2);
+          } else {
+            inverse.ElementChunk(c / 2);
+          }
+        });
+        team.Sync();
+        // Both sides' node chunks cover the same nodes: one walk over each
+        // node's incidences gathers both sides' forces (the sums GatherNodalForce forms).
+        team.ForEachChunk(worker, node_chunks, [&](int c) {
+          const int begin = c * kNodesPerChunk, end = std::min(begin + kNodesPerChunk, model.num_nodes());
+          T forward_forces[3 * kNodesPerChunk], inverse_forces[3 * kNodesPerChunk];
+          for (int a = begin; a < end; ++a) {
+            GatherNodalForces(model, solver.element_forces_.data(), inverse.element_forces_.data(), a,
+                              &forward_forces[3 * (a - begin)], &inverse_forces[3 * (a - begin)]);
+          }
+          solver.NodeChunk(c, fraction_end, forward_forces);
+          inverse.NodeChunk(c, inverse_forces);
+        });
       } else {
-        inverse.ElementChunk(c - forward_elements);
+        team.ForEachChunk(worker, element_chunks, [&](int c) { solver.ElementChunk(c); });
+        team.Sync();
+        team.ForEachChunk(worker, node_chunks, [&](int c) { solver.NodeChunk(c, fraction_end); });
+        team.Sync();
+        team.ForEachChunk(worker, inverse.element_chunks(), [&](int c) { inverse.ElementChunk(c); });
+        team.Sync();
+        team.ForEachChunk(worker, node_chunks, [&](int c) { inverse.NodeChunk(c); });
       }
-    });
-    // Both sides' node chunks cover the same nodes: one walk over each node's
-    // incidences gathers both sides' forces (the sums GatherNodalForce forms).
-    DG_CHECK(forward_nodes == inverse.node_chunks());
-    const TledModel<T>& model = *model_;
-    ForEachChunk(forward_nodes, [&](int c) {
-      const int begin = c * kNodesPerChunk, end = std::min(begin + kNodesPerChunk, model.num_nodes());
-      T forward_forces[3 * kNodesPerChunk], inverse_forces[3 * kNodesPerChunk];
-      for (int a = begin; a < end; ++a) {
-        GatherNodalForces(model, solver.element_forces_.data(), inverse.element_forces_.data(), a,
-                          &forward_forces[3 * (a - begin)], &inverse_forces[3 * (a - begin)]);
-      }
-      solver.NodeChunk(c, forward_forces);
-      inverse.NodeChunk(c, inverse_forces);
-    });
-  } else {
-    ForEachChunk(forward_elements, [&](int c) { solver.ElementChunk(c); });
-    ForEachChunk(forward_nodes, [&](int c) { solver.NodeChunk(c); });
-    ForEachChunk(inverse.element_chunks(), [&](int c) { inverse.ElementChunk(c); });
-    ForEachChunk(inverse.node_chunks(), [&](int c) { inverse.NodeChunk(c); });
-  }
-  inverse.Finish();
-  solver.FinishStep(1.0);
-  solver.CheckStep();
+      if (!team.Sync(finish)) return;
+    }
+  });
 }
 
 template <typename T>
@@ -201,20 +193,23 @@ void CoupledSimulation<T>::Advance(int steps, std::span<const double> targets_m)
                     std::to_string(constrained_nodes_.size()) + " constrained nodes",
                 "coupled simulation, step " + std::to_string(steps_), "give 3 values per constrained node");
   }
-  const std::span<const T> u = solver_->displacement();
-  target_begin_.resize(count);
-  step_targets_.resize(count);
-  for (size_t k = 0; k < constrained_nodes_.size(); ++k) {
-    for (int i = 0; i < 3; ++i) target_begin_[3 * k + i] = u[3 * size_t(constrained_nodes_[k]) + i];
-  }
-  for (int s = 0; s < steps; ++s) {
-    const double fraction = double(s + 1) / steps;
-    for (size_t k = 0; k < count; ++k) {
-      step_targets_[k] = s + 1 == steps ? targets_m[k] : target_begin_[k] + fraction * (targets_m[k] - target_begin_[k]);
+  if (steps <= 0) return;
+  if (!has_inverse()) {
+    // The solver counts the steps it completed, also when it throws.
+    const long long start = solver_->steps_taken();
+    try {
+      solver_->Advance(steps, targets_m);
+    } catch (...) {
+      steps_ += solver_->steps_taken() - start;
+      throw;
     }
-    Step(step_targets_);
-    ++steps_;
+    steps_ += solver_->steps_taken() - start;
+    return;
   }
+  // Each constrained node moves linearly from its current displacement to its
+  // target, reaching it at the last step.
+  solver_->SetTargets(targets_m);
+  AdvanceCoupled(steps);
 }
 
 template class CoupledSimulation<float>;

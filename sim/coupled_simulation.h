@@ -40,8 +40,8 @@ struct CoupledOptions {
 //             Recover(Um_{n+1}, Um_{n+2}, Um_{n+3}) (eq. 4, motion model Um at
 //             phase_at_start + t / period): InverseSimulation, one level ahead.
 // The two are independent, so with `concurrent` they run side by side: each
-// of the step's two passes (elements, then nodes) is one parallel loop over
-// both sides' fixed chunks, two joins per step, however many threads.
+// of the step's two passes (elements, then nodes) is one pass of a StepTeam
+// over both sides' fixed chunks, two barriers per step, however many threads.
 // Only three motion-model levels and two weight sets are kept. Every partial
 // sum runs in fixed chunks, so results are bitwise the same for any thread
 // count and for concurrent or sequential order.
@@ -89,18 +89,19 @@ class CoupledSimulation {
 
  private:
   void BuildSolver(std::span<const double> u_m, std::span<const double> v_m_s);
-  void Step(std::span<const double> targets_m);
+  // Runs `steps` steps of forward and inverse simulation on the team.
+  void AdvanceCoupled(int steps);
 
   std::shared_ptr<const TledModel<T>> model_;
   std::shared_ptr<const CyclicMotionModel> motion_;
   CoupledOptions options_;
   StabilityReport stability_;
   std::vector<int> fixed_nodes_, constrained_nodes_;
+  std::shared_ptr<StepTeam> team_;  // every solver built steps on it
   std::unique_ptr<TledSolver<T>> solver_;
   long long steps_ = 0;
 
   std::unique_ptr<InverseSimulation<T>> inverse_;  // its level is steps_
-  std::vector<double> step_targets_, target_begin_;
 };
 
 extern template class CoupledSimulation<float>;

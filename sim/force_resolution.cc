@@ -132,6 +132,8 @@ ForceResolution<T>::ForceResolution(std::shared_ptr<const TledModel<T>> model) :
   }
   corner_forces_.assign(model_->force_array_size(), T(0));
   chunk_min_ratio_.assign(ElementChunks(*model_), T(1));
+  layout_u_.resize(3 * size_t(mesh.num_nodes()));
+  layout_forces_.resize(3 * size_t(mesh.num_nodes()));
 }
 
 template <typename T>
@@ -140,11 +142,13 @@ void ForceResolution<T>::Resolve(std::span<const T> u_model, std::span<const T> 
   const size_t n_dofs = 3 * inverse_count_.size();
   DG_CHECK(u_model.size() == n_dofs && forces_n.size() == n_dofs && weights.size() == weights_size());
   constexpr int W = TledModel<T>::kLanes;
+  model.ToLayout(u_model, std::span<T>(layout_u_));
+  model.ToLayout(forces_n, std::span<T>(layout_forces_));
   ForEachBlockChunk(model, [&](int chunk, int begin, int end) {
     T smallest = T(1);
     for (int b = begin; b < end; ++b) {
-      smallest = std::min(smallest, ResolveBlock(model, b, model.block_reference_edges(b),
-                                                 u_model.data(), forces_n.data(), inverse_count_.data(),
+      smallest = std::min(smallest, ResolveBlock(model, b, model.block_reference_edges(b), layout_u_.data(),
+                                                 layout_forces_.data(), inverse_count_.data(),
                                                  weights.data() + size_t(b) * 12 * W));
     }
     chunk_min_ratio_[chunk] = smallest;
@@ -162,10 +166,11 @@ void ForceResolution<T>::Apply(std::span<const T> weights, std::span<const T> u,
   const size_t n_dofs = 3 * inverse_count_.size();
   DG_CHECK(u.size() == n_dofs && forces_n.size() == n_dofs && weights.size() == weights_size());
   constexpr int W = TledModel<T>::kLanes;
+  model.ToLayout(u, std::span<T>(layout_u_));
   ForEachBlockChunk(model, [&](int, int begin, int end) {
     for (int b = begin; b < end; ++b) {
       const size_t offset = size_t(b) * 12 * W;
-      ApplyBlock(model, b, model.block_reference_edges(b), u.data(), weights.data() + offset,
+      ApplyBlock(model, b, model.block_reference_edges(b), layout_u_.data(), weights.data() + offset,
                  corner_forces_.data() + offset);
     }
   });
@@ -173,9 +178,12 @@ void ForceResolution<T>::Apply(std::span<const T> weights, std::span<const T> u,
   tbb::parallel_for(tbb::blocked_range<int>(0, chunks), [&](const tbb::blocked_range<int>& range) {
     for (int c = range.begin(); c != range.end(); ++c) {
       const int end = std::min((c + 1) * kNodesPerChunk, model.num_nodes());
-      for (int a = c * kNodesPerChunk; a < end; ++a) GatherNodalForce(model, corner_forces_.data(), a, &forces_n[3 * a]);
+      for (int a = c * kNodesPerChunk; a < end; ++a) {
+        GatherNodalForce(model, corner_forces_.data(), a, &layout_forces_[3 * a]);
+      }
     }
   });
+  model.ToMeshOrder(std::span<const T>(layout_forces_), forces_n);
 }
 
 template <typename T>

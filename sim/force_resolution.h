@@ -60,6 +60,7 @@ class ForceResolution {
 
   size_t weights_size() const { return model_->force_array_size(); }
 
+  // Per-node spans are in the mesh's node order.
   // Weights of forces_n (3 per node, N) in the geometry X + u_model (3 per node, m).
   // @throws dg::Error naming the element if an edge triple is degenerate there.
   void Resolve(std::span<const T> u_model, std::span<const T> forces_n, std::span<T> weights);
@@ -77,6 +78,7 @@ class ForceResolution {
   std::vector<T> inverse_count_;    // per node: 1 / (number of its elements)
   AlignedVector<T> corner_forces_;  // Apply()'s element-major forces, as the TLED kernel's
   std::vector<T> chunk_min_ratio_;  // Resolve()'s smallest volume ratio per chunk
+  std::vector<T> layout_u_, layout_forces_;  // the per-node arguments in layout order
 };
 
 extern template class ForceResolution<float>;

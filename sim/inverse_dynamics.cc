@@ -52,6 +52,8 @@ ForceRecovery<T>::ForceRecovery(std::shared_ptr<const TledModel<T>> model, const
   }
   element_forces_.assign(model_->force_array_size(), T(0));
   chunk_min_J_.assign(ElementChunks(*model_), T(1));
+  for (std::vector<T>& level : layout_levels_) level.resize(3 * mass.size());
+  layout_forces_.resize(3 * mass.size());
 }
 
 template <typename T>
@@ -60,8 +62,19 @@ void ForceRecovery<T>::Recover(std::span<const T> u_prev, std::span<const T> u, 
   const TledModel<T>& model = *model_;
   const size_t n_dofs = 3 * size_t(model.num_nodes());
   DG_CHECK(u_prev.size() == n_dofs && u.size() == n_dofs && u_next.size() == n_dofs && forces_n.size() == n_dofs);
-  ComputeElementForcesParallel(model, u.data(), element_forces_.data(), std::span<T>(chunk_min_J_));
-  if (!(*std::min_element(chunk_min_J_.begin(), chunk_min_J_.end()) > 0)) ThrowInvertedMotion(model.mesh(), u.data());
+  model.ToLayout(u_prev, std::span<T>(layout_levels_[0]));
+  model.ToLayout(u, std::span<T>(layout_levels_[1]));
+  model.ToLayout(u_next, std::span<T>(layout_levels_[2]));
+  Recover(layout_levels_[0].data(), layout_levels_[1].data(), layout_levels_[2].data(), layout_forces_.data());
+  model.ToMeshOrder(std::span<const T>(layout_forces_), forces_n);
+}
+
+template <typename T>
+void ForceRecovery<T>::Recover(const T* __restrict u_prev, const T* __restrict u, const T* __restrict u_next,
+                               T* __restrict forces_n) {
+  const TledModel<T>& model = *model_;
+  ComputeElementForcesParallel(model, u, element_forces_.data(), std::span<T>(chunk_min_J_));
+  if (!(*std::min_element(chunk_min_J_.begin(), chunk_min_J_.end()) > 0)) ThrowInvertedMotion(model.layout_mesh(), u);
   const int chunks = (model.num_nodes() + kNodesPerChunk - 1) / kNodesPerChunk;
   tbb::parallel_for(tbb::blocked_range<int>(0, chunks), [&](const tbb::blocked_range<int>& range) {
     for (int c = range.begin(); c != range.end(); ++c) {
@@ -86,12 +99,15 @@ template <typename T>
 InverseSimulation<T>::InverseSimulation(std::shared_ptr<const TledModel<T>> model,
                                         std::shared_ptr<const CyclicMotionModel> motion, const SolverOptions& options,
                                         double phase_at_start)
-    : model_(std::move(model)), motion_(std::move(motion)), dt_s_(options.dt_s), phase_at_start_(phase_at_start) {
+    : model_(std::move(model)),
+      motion_(motion->Reordered(model_->mesh_nodes_in_layout_order())),
+      dt_s_(options.dt_s),
+      phase_at_start_(phase_at_start) {
   if (const std::string problem = options.Validate(); !problem.empty()) {
     throw Error("invalid inverse simulation options: " + problem, "solver options", "correct the option");
   }
   const int N = model_->num_nodes();
-  DG_CHECK(motion_ != nullptr && motion_->dofs() == 3 * N);
+  DG_CHECK(motion_.dofs() == 3 * N);
   const double dt = options.dt_s, alpha = options.damping_per_s;
   const double A = 2.0 / (2.0 + alpha * dt);
   increment_decay_ = static_cast<T>((2.0 - alpha * dt) / (2.0 + alpha * dt));
@@ -116,8 +132,8 @@ InverseSimulation<T>::InverseSimulation(std::shared_ptr<const TledModel<T>> mode
   // Level 0's forces need Um_-1 and Um_0 (the node pass adds Um_1); two passes
   // then bring the weights of level 0 (the first pass resolves zeros).
   pending_level_ = 0;
-  motion_->Evaluate<T>(PhaseOf(-1), std::span<T>(motion_levels_[Slot(-1)]));
-  motion_->Evaluate<T>(PhaseOf(0), std::span<T>(motion_levels_[Slot(0)]));
+  motion_.Evaluate<T>(PhaseOf(-1), std::span<T>(motion_levels_[Slot(-1)]));
+  motion_.Evaluate<T>(PhaseOf(0), std::span<T>(motion_levels_[Slot(0)]));
   Advance();
   Advance();
 }
@@ -150,7 +166,7 @@ void InverseSimulation<T>::NodeChunk(int chunk, const T* gathered) {
   T* __restrict u_next = motion_levels_[Slot(pending_level_ + 1)].data();
   const T* __restrict u = motion_levels_[Slot(pending_level_)].data();
   const T* __restrict u_prev = motion_levels_[Slot(pending_level_ - 1)].data();
-  motion_->Evaluate<T>(PhaseOf(pending_level_ + 1), 3 * begin, std::span<T>(u_next + 3 * begin, 3 * size_t(end - begin)));
+  motion_.Evaluate<T>(PhaseOf(pending_level_ + 1), 3 * begin, std::span<T>(u_next + 3 * begin, 3 * size_t(end - begin)));
   for (int a = begin; a < end; ++a) {
     const T* f = &gathered[3 * (a - begin)];
     for (int i = 0; i < 3; ++i) {
@@ -164,10 +180,11 @@ void InverseSimulation<T>::NodeChunk(int chunk, const T* gathered) {
 template <typename T>
 void InverseSimulation<T>::Finish() {
   const T* u = motion_levels_[Slot(pending_level_)].data();
-  if (!(*std::min_element(chunk_min_J_.begin(), chunk_min_J_.end()) > 0)) ThrowInvertedMotion(model_->mesh(), u);
+  if (!(*std::min_element(chunk_min_J_.begin(), chunk_min_J_.end()) > 0)) ThrowInvertedMotion(model_->layout_mesh(), u);
   constexpr double kMinRatio = ForceResolution<T>::kMinVolumeRatio;
   if (!(*std::min_element(chunk_min_ratio_.begin(), chunk_min_ratio_.end()) >= T(kMinRatio))) {
-    ThrowDegenerateEdges(FindWorstElement(model_->mesh(), u), kMinRatio, "the motion model's geometry while running");
+    ThrowDegenerateEdges(FindWorstElement(model_->layout_mesh(), u), kMinRatio,
+                         "the motion model's geometry while running");
   }
   std::swap(weights_, next_weights_);
   ++pending_level_;

@@ -31,7 +31,7 @@ class ForceRecovery {
   ForceRecovery(std::shared_ptr<const TledModel<T>> model, const SolverOptions& options);
 
   // Forces (3 per node, newtons) for displacements u_prev, u, u_next (3 per
-  // node, metres) at times t - dt, t, t + dt.
+  // node, metres) at times t - dt, t, t + dt, all in the mesh's node order.
   // @throws dg::Error if an element of U is inverted (J <= 0), naming it.
   void Recover(std::span<const T> u_prev, std::span<const T> u, std::span<const T> u_next,
                std::span<T> forces_n);
@@ -39,12 +39,16 @@ class ForceRecovery {
   const TledModel<T>& model() const { return *model_; }
 
  private:
+  // Recover() in layout order.
+  void Recover(const T* u_prev, const T* u, const T* u_next, T* forces_n);
+
   std::shared_ptr<const TledModel<T>> model_;
   std::vector<T> inertia_gain_;   // per node: M_a / (A dt^2)
   std::vector<T> gravity_force_;  // per node and axis: M_a g
   T increment_decay_ = 0;
   AlignedVector<T> element_forces_;
   std::vector<T> chunk_min_J_;
+  std::vector<T> layout_levels_[3], layout_forces_;  // Recover()'s arguments in layout order
 };
 
 extern template class ForceRecovery<float>;
@@ -64,7 +68,8 @@ extern template class ForceRecovery<double>;
 //  - a node pass gathers the forces of n + 2, evaluates Um_{n+3} for its own
 //    nodes only (the slot Um_n leaves), and stores r / n_a, the share of each
 //    element, so the resolution multiplies by no count.
-// Three motion levels, one set of edge inverses and two weight sets are kept.
+// Three motion levels, one set of edge inverses and two weight sets are kept,
+// all in the model's layout order (the motion model is reordered once).
 //
 // Threading: a level's parts are ElementChunk(c) for every c < element_chunks(),
 // then NodeChunk(c) for every c < node_chunks() (each in any order and on any
@@ -106,10 +111,10 @@ class InverseSimulation {
   friend class CoupledSimulation;
 
   int Slot(long long level) const { return static_cast<int>(((level % 3) + 3) % 3); }
-  double PhaseOf(long long level) const { return motion_->PhaseAt(double(level) * dt_s_, phase_at_start_); }
+  double PhaseOf(long long level) const { return motion_.PhaseAt(double(level) * dt_s_, phase_at_start_); }
 
   std::shared_ptr<const TledModel<T>> model_;
-  std::shared_ptr<const CyclicMotionModel> motion_;
+  CyclicMotionModel motion_;  // in the model's layout order
   double dt_s_ = 0, phase_at_start_ = 0;
   std::vector<T> inertia_gain_;   // per node: M_a / (A dt^2)
   std::vector<T> gravity_force_;  // per node and axis: M_a g

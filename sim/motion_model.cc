@@ -67,6 +67,18 @@ CyclicMotionModel::CyclicMotionModel(const std::vector<double>& phase_displaceme
   control_ = data * fit.transpose();
 }
 
+CyclicMotionModel CyclicMotionModel::Reordered(std::span<const int> nodes) const {
+  DG_CHECK(3 * nodes.size() == size_t(dofs_));
+  CyclicMotionModel reordered;
+  reordered.phases_ = phases_;
+  reordered.dofs_ = dofs_;
+  reordered.period_s_ = period_s_;
+  reordered.smoothing_ = smoothing_;
+  reordered.control_.resize(control_.rows(), control_.cols());
+  for (size_t k = 0; k < nodes.size(); ++k) reordered.control_.middleRows<3>(3 * k) = control_.middleRows<3>(3 * nodes[k]);
+  return reordered;
+}
+
 template <typename T>
 void CyclicMotionModel::Evaluate(double phase, std::span<T> out) const {
   DG_CHECK(out.size() == size_t(dofs_));

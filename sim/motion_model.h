@@ -47,10 +47,17 @@ class CyclicMotionModel {
   template <typename T>
   void Evaluate(double phase, int first_dof, std::span<T> out) const;
 
+  // The same motion with its nodes renumbered: node k of the result is node
+  // nodes[k] of this one (bitwise the same values).
+  // @pre nodes is a permutation of [0, dofs() / 3)
+  CyclicMotionModel Reordered(std::span<const int> nodes) const;
+
   // Phase at time t_s of a clock whose phase was phase_at_zero at t = 0.
   double PhaseAt(double t_s, double phase_at_zero) const { return phase_at_zero + t_s / period_s_; }
 
  private:
+  CyclicMotionModel() = default;
+
   int phases_ = 0, dofs_ = 0;
   double period_s_ = 0, smoothing_ = 0;
   Eigen::MatrixXd control_;  // [dof][phase]: column k is control point k of every dof

@@ -14,12 +14,15 @@
 namespace dg::sim {
 namespace {
 
-// Internal forces of the whole mesh at displacement u (3N), in double.
+// Internal forces of the whole mesh at displacement u (3N), in double, both
+// in the mesh's node order.
 Eigen::VectorXd InternalForces(const TledModel<double>& model, const Eigen::VectorXd& u,
                                std::vector<double>* scratch) {
-  ComputeElementForces(model, u.data(), scratch->data(), 0, model.num_blocks());
-  Eigen::VectorXd f(u.size());
-  for (int a = 0; a < model.num_nodes(); ++a) GatherNodalForce(model, scratch->data(), a, &f[3 * a]);
+  Eigen::VectorXd layout_u(u.size()), layout_f(u.size()), f(u.size());
+  model.ToLayout(std::span<const double>(u.data(), u.size()), std::span<double>(layout_u.data(), u.size()));
+  ComputeElementForces(model, layout_u.data(), scratch->data(), 0, model.num_blocks());
+  for (int a = 0; a < model.num_nodes(); ++a) GatherNodalForce(model, scratch->data(), a, &layout_f[3 * a]);
+  model.ToMeshOrder(std::span<const double>(layout_f.data(), u.size()), std::span<double>(f.data(), u.size()));
   return f;
 }
 
@@ -74,7 +77,7 @@ StabilityReport EstimateStability(const TetMesh& mesh, const Material& material,
   // A = M^-1/2 K M^-1/2 on the free degrees of freedom.
   Eigen::VectorXd inv_sqrt_mass(n), free = Eigen::VectorXd::Ones(n);
   for (int a = 0; a < model.num_nodes(); ++a) {
-    inv_sqrt_mass.segment<3>(3 * a).setConstant(1.0 / std::sqrt(model.lumped_mass_kg()[a]));
+    inv_sqrt_mass.segment<3>(3 * a).setConstant(1.0 / std::sqrt(model.lumped_mass_kg()[model.layout_node(a)]));
   }
   for (int dof : constrained_dofs) free[dof] = 0;
   std::vector<double> scratch(model.force_array_size());

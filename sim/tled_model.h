@@ -1,6 +1,7 @@
 #pragma once
 
 #include <cstdint>
+#include <span>
 #include <vector>
 
 #include "sim/aligned_vector.h"
@@ -14,10 +15,20 @@ namespace dg::sim {
 // per node the lumped mass, and the node -> element-corner gather list.
 // Geometry is computed in double and stored in the kernel's scalar T.
 //
-// Layout, for SIMD: elements are grouped in blocks of kLanes (one 64-byte
+// Layout order: whatever order the mesh's nodes come in (a file's, a
+// mesher's), the model numbers them along a Morton curve through their
+// reference positions (layout_mesh()), so that nodes close in space are close
+// in memory and a thread's contiguous range of nodes is a compact region.
+// Every per-node array of the model and of the kernels (lumped masses, gather
+// lists, the displacements and forces they take) is in layout order; the
+// classes built on the model (TledSolver, CoupledSimulation, ForceRecovery,
+// ForceResolution) take and give the mesh's own order, converting with
+// ToLayout() and ToMeshOrder(). Element ids are the mesh's in both.
+//
+// Blocks, for SIMD: elements are grouped in blocks of kLanes (one 64-byte
 // register of T); within a block every quantity is stored lane-contiguous
 // ("structure of arrays"), so the kernel computes kLanes elements per
-// instruction. Elements are ordered by their smallest node id so that a
+// instruction. Elements are ordered by their smallest layout node so that a
 // block's nodes lie close together in memory; the last block is padded with
 // zero-volume elements on node 0, which produce no force. Only dN/dX of corners
 // 1..3 are stored: dN0/dX = -(dN1 + dN2 + dN3)/dX since the shape functions sum to one.
@@ -31,7 +42,20 @@ class TledModel {
   // @throws dg::Error for an invalid material or a degenerate/inverted element.
   TledModel(const TetMesh& mesh, const Material& material);
 
+  // The mesh as given (oriented), in its own node order.
   const TetMesh& mesh() const { return mesh_; }
+  // The same mesh with its nodes in layout order (no node or element sets).
+  const TetMesh& layout_mesh() const { return layout_mesh_; }
+  int layout_node(int node) const { return layout_of_node_[node]; }
+  int mesh_node(int layout_node) const { return node_of_layout_[layout_node]; }
+  // mesh_node() of every layout node, in layout order.
+  std::span<const int> mesh_nodes_in_layout_order() const { return node_of_layout_; }
+  // Per-node values (3 per node, xyz) from the mesh's node order into layout
+  // order, and back. @pre both spans hold 3 num_nodes() values
+  template <typename In, typename Out>
+  void ToLayout(std::span<const In> values, std::span<Out> layout) const;
+  template <typename In, typename Out>
+  void ToMeshOrder(std::span<const In> layout, std::span<Out> values) const;
   const Material& material() const { return material_; }
   int num_nodes() const { return mesh_.num_nodes(); }
   int num_tets() const { return mesh_.num_tets(); }
@@ -39,7 +63,7 @@ class TledModel {
   T shear_modulus() const { return static_cast<T>(material_.shear_modulus_pa()); }
   T bulk_modulus() const { return static_cast<T>(material_.bulk_modulus_pa()); }
 
-  // Node ids of block b: [corner][lane].
+  // Layout node ids of block b: [corner][lane].
   const int32_t* block_nodes(int b) const { return nodes_.data() + size_t(b) * 4 * kLanes; }
   // dN/dX of corners 1..3 of block b: [corner - 1][dimension][lane], 1/m.
   const T* block_shape_gradients(int b) const { return dN_dX_.data() + size_t(b) * 9 * kLanes; }
@@ -53,16 +77,18 @@ class TledModel {
 
   // Size of the element-major force array the kernel writes: [block][corner][xyz][lane].
   size_t force_array_size() const { return size_t(num_blocks_) * 12 * kLanes; }
-  // Node a's incidences are gather_offsets()[gather_begin()[a] .. gather_begin()[a+1]):
+  // Layout node a's incidences are gather_offsets()[gather_begin()[a] .. gather_begin()[a+1]):
   // each the index of that corner's x force in the force array (y at +kLanes, z at +2 kLanes).
   const std::vector<int32_t>& gather_begin() const { return gather_begin_; }
   const std::vector<int32_t>& gather_offsets() const { return gather_offsets_; }
 
-  // Lumped nodal mass, rho V0 / 4 from each element of the node, kg.
+  // Lumped nodal mass, rho V0 / 4 from each element of the node, kg, in layout order.
   const std::vector<double>& lumped_mass_kg() const { return mass_kg_; }
 
  private:
   TetMesh mesh_;
+  TetMesh layout_mesh_;
+  std::vector<int> layout_of_node_, node_of_layout_;
   Material material_;
   int num_blocks_ = 0;
   AlignedVector<int32_t> nodes_;
@@ -73,6 +99,24 @@ class TledModel {
   std::vector<int32_t> gather_offsets_;
   std::vector<double> mass_kg_;
 };
+
+template <typename T>
+template <typename In, typename Out>
+void TledModel<T>::ToLayout(std::span<const In> values, std::span<Out> layout) const {
+  for (size_t a = 0; a < layout_of_node_.size(); ++a) {
+    const size_t l = layout_of_node_[a];
+    for (int i = 0; i < 3; ++i) layout[3 * l + i] = static_cast<Out>(values[3 * a + i]);
+  }
+}
+
+template <typename T>
+template <typename In, typename Out>
+void TledModel<T>::ToMeshOrder(std::span<const In> layout, std::span<Out> values) const {
+  for (size_t a = 0; a < layout_of_node_.size(); ++a) {
+    const size_t l = layout_of_node_[a];
+    for (int i = 0; i < 3; ++i) values[3 * a + i] = static_cast<Out>(layout[3 * l + i]);
+  }
+}
 
 extern template class TledModel<float>;
 extern template class TledModel<double>;

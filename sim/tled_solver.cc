@@ -6,9 +6,6 @@
 #include <limits>
 
 #include <Eigen/LU>
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
-#include <tbb/partitioner.h>
 
 #include "sim/element_measures.h"
 #include "sim/error.h"
@@ -20,10 +17,7 @@ namespace {
 
 // Work is split into fixed chunks (kBlocksPerChunk, kNodesPerChunk) so that
 // every partial result (minimum J, kinetic energy) is summed in the same order
-// whatever the thread count.
-// TBB's auto partitioner hands the chunks out, so a thread that the machine
-// delays (a shared virtual core) takes fewer of them instead of holding up the
-// step, as a fixed half-and-half split would.
+// whatever the thread count; a StepTeam hands the chunks out.
 
 std::string Milliseconds(double seconds) {
   char text[32];
@@ -55,8 +49,10 @@ std::string SolverOptions::Validate() const {
 
 template <typename T>
 TledSolver<T>::TledSolver(std::shared_ptr<const TledModel<T>> model, BoundaryConditions conditions,
-                          const SolverOptions& options, const StabilityReport* stability)
-    : model_(std::move(model)), conditions_(std::move(conditions)), options_(options) {
+                          const SolverOptions& options, const StabilityReport* stability,
+                          std::shared_ptr<StepTeam> team)
+    : model_(std::move(model)), conditions_(std::move(conditions)), options_(options), team_(std::move(team)) {
+  if (!team_) team_ = std::make_shared<StepTeam>(DefaultTeamSize());
   if (const std::string problem = options_.Validate(); !problem.empty()) {
     throw Error("invalid solver options: " + problem, "solver options", "correct the option");
   }
@@ -68,7 +64,7 @@ TledSolver<T>::TledSolver(std::shared_ptr<const TledModel<T>> model, BoundaryCon
                   "degrees of freedom are 3 * node + axis for the mesh's " +
                       std::to_string(model_->num_nodes()) + " nodes");
     }
-    dof_kind_[dof] = -2;
+    dof_kind_[LayoutDof(dof)] = -2;
   }
   for (size_t k = 0; k < conditions_.prescribed_dofs.size(); ++k) {
     const int dof = conditions_.prescribed_dofs[k];
@@ -76,12 +72,13 @@ TledSolver<T>::TledSolver(std::shared_ptr<const TledModel<T>> model, BoundaryCon
       throw Error("prescribed degree of freedom " + std::to_string(dof) + " is out of range",
                   model_->mesh().source, "degrees of freedom are 3 * node + axis");
     }
-    if (dof_kind_[dof] != -1) {
+    if (dof_kind_[LayoutDof(dof)] != -1) {
       throw Error("degree of freedom " + std::to_string(dof) + " (node " + std::to_string(dof / 3) +
                       ") is both fixed and prescribed, or prescribed twice",
                   "boundary conditions", "give each degree of freedom at most one condition");
     }
-    dof_kind_[dof] = static_cast<int>(k);
+    dof_kind_[LayoutDof(dof)] = static_cast<int>(k);
+    prescribed_layout_dofs_.push_back(LayoutDof(dof));
   }
   target_begin_.assign(conditions_.prescribed_dofs.size(), 0.0);
   for (int dof = 0; dof < n_dofs; ++dof) {
@@ -140,6 +137,11 @@ TledSolver<T>::TledSolver(std::shared_ptr<const TledModel<T>> model, BoundaryCon
   reaction_.assign(n_dofs, T(0));
   chunk_min_J_.assign(ElementChunks(*model_), T(1));
   chunk_kinetic_.assign(NodeChunks(*model_), 0.0);
+  for (int c = 0; c <= node_chunks(); ++c) {
+    const int first_dof = 3 * std::min(c * kNodesPerChunk, model_->num_nodes());
+    chunk_constrained_begin_.push_back(static_cast<int>(
+        std::lower_bound(constrained_dofs_.begin(), constrained_dofs_.end(), first_dof) - constrained_dofs_.begin()));
+  }
   energy_history_.assign(2 * options_.energy_window_steps + 1, 0.0);
 }
 
@@ -155,8 +157,8 @@ void TledSolver<T>::SetExternalForces(std::span<const double> forces_n) {
       throw Error("external force is not finite", "node " + std::to_string(i / 3) + ", axis " +
                       std::to_string(i % 3), "check the load that produced it");
     }
-    external_force_[i] = static_cast<T>(forces_n[i]);
   }
+  model_->ToLayout(forces_n, std::span<T>(external_force_));
 }
 
 template <typename T>
@@ -167,13 +169,16 @@ void TledSolver<T>::SetState(std::span<const double> u_m, std::span<const double
                 "initial state", "give 3 components per node");
   }
   const double dt = internal_dt_s();
-  for (size_t i = 0; i < u_.size(); ++i) {
+  std::vector<double> before(u_m.size());
+  for (size_t i = 0; i < u_m.size(); ++i) {
     if (!std::isfinite(u_m[i]) || !std::isfinite(v_m_s[i])) {
       throw Error("initial state is not finite", "node " + std::to_string(i / 3), "check its source");
     }
-    u_[i] = static_cast<T>(u_m[i]);
-    u_prev_[i] = static_cast<T>(u_m[i] - v_m_s[i] * dt);
+    before[i] = u_m[i] - v_m_s[i] * dt;
   }
+  model_->ToLayout(u_m, std::span<T>(u_));
+  model_->ToLayout(std::span<const double>(before), std::span<T>(u_prev_));
+  ++state_version_;
 }
 
 template <typename T>
@@ -193,7 +198,7 @@ void TledSolver<T>::SetTargets(std::span<const double> targets_m) {
     }
   }
   for (size_t k = 0; k < targets_m.size(); ++k) {
-    target_begin_[k] = u_[conditions_.prescribed_dofs[k]];
+    target_begin_[k] = u_[prescribed_layout_dofs_[k]];
     target_end_[k] = targets_m[k];
   }
 }
@@ -202,29 +207,20 @@ template <typename T>
 void TledSolver<T>::Advance(int steps, std::span<const double> targets_m) {
   SetTargets(targets_m);
   const int total = steps * substeps_;
-  for (int s = 0; s < total; ++s) {
-    Step(double(s + 1) / total);
-    CheckStep();
-  }
-}
-
-template <typename T>
-void TledSolver<T>::Step(double fraction_end) {
-  // TBB's auto partitioner hands the chunks out, so a thread that the machine
-  // delays (a shared virtual core) takes fewer of them instead of holding up the step.
-  tbb::parallel_for(
-      tbb::blocked_range<int>(0, element_chunks()),
-      [&](const tbb::blocked_range<int>& chunks) {
-        for (int c = chunks.begin(); c != chunks.end(); ++c) ElementChunk(c);
-      },
-      tbb::auto_partitioner());
-  tbb::parallel_for(
-      tbb::blocked_range<int>(0, node_chunks()),
-      [&](const tbb::blocked_range<int>& chunks) {
-        for (int c = chunks.begin(); c != chunks.end(); ++c) NodeChunk(c);
-      },
-      tbb::auto_partitioner());
-  FinishStep(fraction_end);
+  team_->Run([&](int worker) {
+    for (int s = 0; s < total; ++s) {
+      team_->ForEachChunk(worker, element_chunks(), [&](int c) { ElementChunk(c); });
+      team_->Sync();
+      const double fraction_end = double(s + 1) / total;
+      team_->ForEachChunk(worker, node_chunks(), [&](int c) { NodeChunk(c, fraction_end); });
+      if (!team_->Sync([&] {
+            FinishStep();
+            CheckStep();
+          })) {
+        return;
+      }
+    }
+  });
 }
 
 template <typename T>
@@ -239,7 +235,7 @@ void TledSolver<T>::ElementChunk(int chunk) {
 }
 
 template <typename T>
-void TledSolver<T>::NodeChunk(int chunk, const T* gathered) {
+void TledSolver<T>::NodeChunk(int chunk, double fraction_end, const T* gathered) {
   // Gather (unless given) and central-difference update of every dof as if
   // free, with the kinetic energy of the free dofs (sum of m v^2, scaled in FinishStep).
   const TledModel<T>& model = *model_;
@@ -262,21 +258,15 @@ void TledSolver<T>::NodeChunk(int chunk, const T* gathered) {
     }
     twice_kinetic += m_v2;
   }
-  chunk_kinetic_[chunk] = twice_kinetic;
-}
-
-template <typename T>
-void TledSolver<T>::FinishStep(double fraction_end) {
-  const TledModel<T>& model = *model_;
-  // Constrained dofs (few): overwrite, then the support's reaction
+  // The chunk's constrained dofs (few): overwrite, then the support's reaction
   // M a + alpha M v + F - R and their kinetic energy.
   const double dt = internal_dt_s();
   const double inv_dt2 = 1.0 / (dt * dt);
   const double inv_2dt = 0.5 / dt;
   const double alpha = options_.damping_per_s;
   const double* mass = model.lumped_mass_kg().data();
-  double constrained_twice_kinetic = 0;
-  for (const int dof : constrained_dofs_) {
+  for (int k = chunk_constrained_begin_[chunk]; k < chunk_constrained_begin_[chunk + 1]; ++k) {
+    const int dof = constrained_dofs_[k];
     const int kind = dof_kind_[dof];
     const double next =
         kind == -2 ? 0.0 : target_begin_[kind] + fraction_end * (target_end_[kind] - target_begin_[kind]);
@@ -287,14 +277,20 @@ void TledSolver<T>::FinishStep(double fraction_end) {
     reaction_[dof] = static_cast<T>(mass[a] * (acceleration + alpha * velocity - options_.gravity_m_s2[dof % 3]) +
                                     internal_force_[dof] - external_force_[dof]);
     const double v = next - u_prev_[dof];
-    constrained_twice_kinetic += mass[a] * v * v;
+    twice_kinetic += mass[a] * v * v;
   }
-  kinetic_energy_j_ = 0.5 * inv_2dt * inv_2dt * constrained_twice_kinetic;
-  for (double k : chunk_kinetic_) kinetic_energy_j_ += 0.5 * inv_2dt * inv_2dt * k;
+  chunk_kinetic_[chunk] = twice_kinetic;
+}
 
+template <typename T>
+void TledSolver<T>::FinishStep() {
+  const double inv_2dt = 0.5 / internal_dt_s();
+  kinetic_energy_j_ = 0;
+  for (double k : chunk_kinetic_) kinetic_energy_j_ += 0.5 * inv_2dt * inv_2dt * k;
   std::swap(u_prev_, u_);
   std::swap(u_, u_next_);
   ++internal_steps_;
+  ++state_version_;
 }
 
 template <typename T>
@@ -321,9 +317,10 @@ void TledSolver<T>::CheckStep() {
         worst = a;
       }
     }
-    const Eigen::Vector3d x = model_->mesh().X_m.col(worst) * 1e3;
+    const Eigen::Vector3d x = model_->layout_mesh().X_m.col(worst) * 1e3;
     char where[160];
-    std::snprintf(where, sizeof where, "node %d at (%.2f, %.2f, %.2f) mm, %s", worst, x.x(), x.y(), x.z(),
+    std::snprintf(where, sizeof where, "node %d at (%.2f, %.2f, %.2f) mm, %s", model_->mesh_node(worst), x.x(),
+                  x.y(), x.z(),
                   StepWhere(internal_steps_, time_s()).c_str());
     const std::string what = std::isfinite(kinetic_energy_j_)
                                  ? "numerical blow-up: kinetic energy grew more than " +
@@ -353,7 +350,7 @@ template <typename T>
 void TledSolver<T>::ThrowInversion() const {
   // Rare path: name the most inverted element (smallest J, in double). The
   // forces that reported it were computed at the previous level, now in u_prev_.
-  const TetMesh& mesh = model_->mesh();
+  const TetMesh& mesh = model_->layout_mesh();
   int worst = 0;
   double worst_J = std::numeric_limits<double>::infinity();
   for (int e = 0; e < mesh.num_tets(); ++e) {
@@ -377,8 +374,9 @@ void TledSolver<T>::ThrowInversion() const {
 template <typename T>
 Eigen::Matrix3Xd TledSolver<T>::DisplacementMatrix() const {
   Eigen::Matrix3Xd u(3, model_->num_nodes());
+  const std::span<const T> mesh_order = displacement();
   for (int a = 0; a < model_->num_nodes(); ++a) {
-    for (int i = 0; i < 3; ++i) u(i, a) = double(u_[3 * a + i]);
+    for (int i = 0; i < 3; ++i) u(i, a) = double(mesh_order[3 * a + i]);
   }
   return u;
 }

@@ -9,6 +9,7 @@
 
 #include "sim/aligned_vector.h"
 #include "sim/stability.h"
+#include "sim/step_team.h"
 #include "sim/tled_model.h"
 
 namespace dg::sim {
@@ -55,18 +56,22 @@ struct BoundaryConditions {
 // Then fixed and prescribed degrees of freedom overwrite their components.
 // Keeps the three time levels the formula needs and nothing else.
 //
-// Threading: Advance() runs its element and node loops under tbb::parallel_for
-// (bounded by the caller's tbb::global_control); results do not depend on the
-// thread count. One solver must not be advanced from two threads at once.
-// Advance() allocates nothing.
+// Threading: Advance() runs its steps on a StepTeam (one given, or its own of
+// DefaultTeamSize() threads, i.e. bounded by the caller's tbb::global_control):
+// per step an element pass and a node pass over fixed chunks, each ended by
+// the team's barrier, the step's reductions and checks in the second
+// barrier's serial section. Results do not depend on the thread count. One
+// solver must not be advanced from two threads at once. Advance() allocates nothing.
 template <typename T>
 class TledSolver {
  public:
   // Estimates the stability limit unless `stability` is given, and applies the
   // time-step policy. @throws dg::Error for invalid options, out-of-range
   // degrees of freedom, or (kRefuse) a time step above the safe limit.
+  // `team` (optional) may be shared with other solvers stepped one at a time.
   TledSolver(std::shared_ptr<const TledModel<T>> model, BoundaryConditions conditions,
-             const SolverOptions& options, const StabilityReport* stability = nullptr);
+             const SolverOptions& options, const StabilityReport* stability = nullptr,
+             std::shared_ptr<StepTeam> team = nullptr);
 
   // Advances `steps` time steps of dt_s; prescribed degrees of freedom move
   // linearly from their current values to `targets_m` (one per prescribed dof,
@@ -94,21 +99,26 @@ class TledSolver {
   const StabilityReport& stability() const { return stability_; }
   const SolverOptions& options() const { return options_; }
   int substeps_per_step() const { return substeps_; }
+  int threads() const { return team_->size(); }
   double internal_dt_s() const { return options_.dt_s / substeps_; }
   long long steps_taken() const { return internal_steps_; }
   double time_s() const { return internal_steps_ * internal_dt_s(); }
 
-  // Current displacement U (3 per node), metres.
-  std::span<const T> displacement() const { return {u_.data(), u_.size()}; }
+  // Per-node state (3 per node) in the mesh's node order. The model keeps its
+  // own node order inside (TledModel, "layout order"); these convert when
+  // first asked after a change, so they are not to be called from two threads
+  // at once, and a span lasts until the state changes.
+  // Current displacement U, metres.
+  std::span<const T> displacement() const { return InMeshOrder(u_, displacement_view_); }
   Eigen::Matrix3Xd DisplacementMatrix() const;
-  // Displacement U- of the step before (3 per node), metres: with displacement(),
-  // the whole state, e.g. to carry it into a solver with other boundary conditions.
-  std::span<const T> previous_displacement() const { return {u_prev_.data(), u_prev_.size()}; }
-  // Internal force F(U) of the last step less the element loads (3 per node), newtons.
-  std::span<const T> internal_forces() const { return {internal_force_.data(), internal_force_.size()}; }
+  // Displacement U- of the step before, metres: with displacement(), the
+  // whole state, e.g. to carry it into a solver with other boundary conditions.
+  std::span<const T> previous_displacement() const { return InMeshOrder(u_prev_, previous_view_); }
+  // Internal force F(U) of the last step less the element loads, newtons.
+  std::span<const T> internal_forces() const { return InMeshOrder(internal_force_, internal_force_view_); }
   // Force each constrained dof's support exerts on the body at the last step,
   // M a + alpha M v + F - R (zero on free dofs), newtons.
-  std::span<const T> reaction_forces() const { return {reaction_.data(), reaction_.size()}; }
+  std::span<const T> reaction_forces() const { return InMeshOrder(reaction_, reaction_view_); }
   // Kinetic energy at the last completed step (central-difference velocity), joules.
   double kinetic_energy_j() const { return kinetic_energy_j_; }
   // Smallest element J seen at the last step.
@@ -119,20 +129,30 @@ class TledSolver {
   template <typename>
   friend class CoupledSimulation;
 
+  // A copy of per-node state in the mesh's node order, made when asked after
+  // the state changed.
+  struct MeshOrderView {
+    std::vector<T> values;
+    long long version = -1;
+  };
+  template <typename Layout>
+  std::span<const T> InMeshOrder(const Layout& layout, MeshOrderView& view) const;
+  int LayoutDof(int dof) const { return 3 * model_->layout_node(dof / 3) + dof % 3; }
+
   // Advance()'s checks of the targets, and their begin and end values.
   void SetTargets(std::span<const double> targets_m);
-  // One step of internal_dt_s(); prescribed dofs reach the given fraction of
-  // the way from their begin to their end targets. Its parts: ElementChunk(c)
-  // for every c < element_chunks(), then NodeChunk(c) for every c <
-  // node_chunks() (each any order, any thread), then FinishStep().
-  void Step(double fraction_end);
+  // One step of internal_dt_s() has three parts: ElementChunk(c) for every
+  // c < element_chunks(), then NodeChunk(c, ...) for every c < node_chunks()
+  // (each in any order, on any thread), then FinishStep() and CheckStep().
   int element_chunks() const { return static_cast<int>(chunk_min_J_.size()); }
   int node_chunks() const { return static_cast<int>(chunk_kinetic_.size()); }
   void ElementChunk(int chunk);
-  // `gathered`: the chunk's nodal forces (3 per node, as GatherNodalForce
-  // sums them) if the caller gathered them; null gathers here.
-  void NodeChunk(int chunk, const T* gathered = nullptr);
-  void FinishStep(double fraction_end);
+  // The update of the chunk's nodes; its prescribed dofs reach `fraction_end`
+  // of the way from their begin to their end targets. `gathered`: the chunk's
+  // nodal forces (3 per node, as GatherNodalForce sums them) if the caller
+  // gathered them; null gathers here.
+  void NodeChunk(int chunk, double fraction_end, const T* gathered = nullptr);
+  void FinishStep();
   void CheckStep();
   bool EnergyBlowingUp() const;
   [[noreturn]] void ThrowInversion() const;
@@ -141,15 +161,18 @@ class TledSolver {
   BoundaryConditions conditions_;
   SolverOptions options_;
   StabilityReport stability_;
+  std::shared_ptr<StepTeam> team_;
   int substeps_ = 1;
 
   // Per node: A dt^2 / M_a with A = 2 / (2 + alpha dt); per component A dt^2 g.
   std::vector<T> force_gain_;
   T gravity_term_[3] = {0, 0, 0};
   T increment_decay_ = 0;  // (2 - alpha dt) / (2 + alpha dt)
-  // -1 free, -2 fixed, else the index into the prescribed targets.
+  // Per layout dof: -1 free, -2 fixed, else the index into the prescribed targets.
   std::vector<int> dof_kind_;
-  std::vector<int> constrained_dofs_;  // sorted
+  std::vector<int> prescribed_layout_dofs_;  // the layout dof of each prescribed target
+  std::vector<int> constrained_dofs_;        // layout dofs, sorted
+  std::vector<int> chunk_constrained_begin_;  // node chunk c's are [begin[c], begin[c + 1]) of constrained_dofs_
   std::vector<T> free_mass_;           // per dof: nodal mass, 0 where constrained
   std::vector<double> target_begin_, target_end_;
 
@@ -158,14 +181,27 @@ class TledSolver {
   const T* element_load_weights_ = nullptr;
   std::vector<T> internal_force_, external_force_, reaction_;
   std::vector<T> chunk_min_J_;
-  std::vector<double> chunk_kinetic_;  // twice the free dofs' kinetic energy times (2 dt)^2
+  std::vector<double> chunk_kinetic_;  // twice the chunk's kinetic energy times (2 dt)^2
 
   long long internal_steps_ = 0;
+  long long state_version_ = 0;  // changes with every step and SetState()
+  mutable MeshOrderView displacement_view_, previous_view_, internal_force_view_, reaction_view_;
   double kinetic_energy_j_ = 0;
   double min_J_ = 1;
   // Kinetic energy of the last 2W + 1 steps, a ring indexed by step.
   std::vector<double> energy_history_;
 };
+
+template <typename T>
+template <typename Layout>
+std::span<const T> TledSolver<T>::InMeshOrder(const Layout& layout, MeshOrderView& view) const {
+  if (view.version != state_version_) {
+    view.values.resize(layout.size());
+    model_->ToMeshOrder(std::span<const T>(layout.data(), layout.size()), std::span<T>(view.values));
+    view.version = state_version_;
+  }
+  return view.values;
+}
 
 extern template class TledSolver<float>;
 extern template class TledSolver<double>;

@@ -14,17 +14,18 @@ namespace {
 
 using testing::MakeBoxMesh;
 
+// The kernel's nodal forces at u_m, both in the mesh's node order (the
+// kernel works in the model's layout order).
 template <typename T>
 Eigen::VectorXd NodalForces(const TledModel<T>& model, const Eigen::VectorXd& u_m) {
-  std::vector<T> u(u_m.data(), u_m.data() + u_m.size());
+  const size_t n = u_m.size();
+  std::vector<T> u(n), f_layout(n);
+  model.ToLayout(std::span<const double>(u_m.data(), n), std::span<T>(u));
   AlignedVector<T> forces(model.force_array_size());
   ComputeElementForces(model, u.data(), forces.data(), 0, model.num_blocks());
-  Eigen::VectorXd f(u_m.size());
-  for (int a = 0; a < model.num_nodes(); ++a) {
-    T fa[3];
-    GatherNodalForce(model, forces.data(), a, fa);
-    for (int i = 0; i < 3; ++i) f[3 * a + i] = fa[i];
-  }
+  for (int a = 0; a < model.num_nodes(); ++a) GatherNodalForce(model, forces.data(), a, &f_layout[3 * a]);
+  Eigen::VectorXd f(n);
+  model.ToMeshOrder(std::span<const T>(f_layout), std::span<double>(f.data(), n));
   return f;
 }
 
