@@ -32,6 +32,10 @@ std::string GraphOptions::Validate() const {
   if (max_in_flight < 1) return "at least one frame must be allowed in flight";
   if (first_frame < 0) return "the first frame must not be negative";
   if (end_frame >= 0 && end_frame <= first_frame) return "the frame range is empty";
+  if (!drop_frames.empty() && policy == Policy::kRealtime) {
+    return "frames to drop are for the offline policy (the realtime policy drops the frames it is behind on)";
+  }
+  if (!drop_frames.empty() && *drop_frames.begin() < 0) return "a frame to drop must not be negative";
   return {};
 }
 
@@ -39,7 +43,7 @@ StageGraph::StageGraph(std::unique_ptr<PacketSource> source, std::vector<std::un
                        const GraphOptions& options, std::vector<std::shared_ptr<SideBranch>> branches)
     : source_(std::move(source)), stages_(std::move(stages)), branches_(std::move(branches)), options_(options) {
   if (const std::string wrong = options_.Validate(); !wrong.empty()) {
-    throw Error("invalid graph options: " + wrong, "pipeline", "check --frames");
+    throw Error("invalid graph options: " + wrong, "pipeline", "check --frames, --policy and --drop");
   }
   if (!source_) throw Error("the graph has no source", "pipeline", "give a capture stage");
   if (stages_.size() + 2 > static_cast<size_t>(FramePacket::kMaxStages)) {
@@ -281,10 +285,20 @@ class StageGraph::Runner {
     return dropped;
   }
 
+  // Offline: the frames the options name to drop, from the current position on.
+  int SkipFramesToDrop() {
+    int dropped = 0;
+    while (plan_.options_.drop_frames.contains(position_) && !AtEnd() && plan_.source_->Skip()) {
+      ++position_;
+      ++dropped;
+    }
+    return dropped;
+  }
+
   // The source stage: fills the packet with the next frame; false at the end.
   bool Capture(FramePacket& packet) {
     if (source_ended_.load() || Failed()) return false;
-    const int dropped = plan_.options_.policy == Policy::kRealtime ? PaceToVideoClock() : 0;
+    const int dropped = plan_.options_.policy == Policy::kRealtime ? PaceToVideoClock() : SkipFramesToDrop();
     // After pacing: waiting for a frame to be due is neither capture's work nor the frame's latency.
     const std::int64_t start = NowNs();
     bool read = false;

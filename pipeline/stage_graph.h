@@ -3,6 +3,7 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <set>
 #include <span>
 #include <string>
 #include <vector>
@@ -27,6 +28,10 @@ struct GraphOptions {
   int max_in_flight = 3;
   std::int64_t first_frame = 0;  // frames before it are skipped
   std::int64_t end_frame = -1;   // one past the last frame; -1: to the end of the recording
+  // Offline only: frames the source skips as the realtime policy skips the
+  // frames it is behind on (logged to /drops, each packet's dropped_before
+  // counting them), so a live run's drops replay deterministically.
+  std::set<std::int64_t> drop_frames;
 
   std::string Validate() const;  // empty when valid
 };

@@ -16,6 +16,7 @@ struct RunArguments {
   std::string policy = "offline";
   std::string video_layout = "left";
   std::string frames;
+  std::vector<std::string> drop;
   bool print_graph = false;
   bool quiet = false;
   bool no_video = false;
@@ -32,10 +33,27 @@ void ParseFrameRange(const std::string& text, pipeline::GraphOptions* graph) {
   if (match[2].length()) graph->end_frame = std::stoll(match[2]);
 }
 
+// Each item "F" (frame F), "A:B" (frames A to B-1) or "A:B:S" (every S-th from A).
+void ParseDropFrames(const std::vector<std::string>& items, pipeline::GraphOptions* graph) {
+  for (const std::string& item : items) {
+    std::smatch match;
+    if (!std::regex_match(item, match, std::regex(R"((\d+)(?::(\d+)(?::(\d+))?)?)"))) {
+      throw Error("--drop takes frames F, ranges A:B or A:B:S (got '" + item + "')", "--drop",
+                  "write e.g. 41:61:2,70:80 for every other frame from 41 to 59 and frames 70 to 79");
+    }
+    const std::int64_t first = std::stoll(match[1]);
+    const std::int64_t end = match[2].length() ? std::stoll(match[2]) : first + 1;
+    const std::int64_t stride = match[3].length() ? std::stoll(match[3]) : 1;
+    if (stride < 1) throw Error("--drop's stride must be at least 1 (got '" + item + "')", "--drop", "write A:B:S with S >= 1");
+    for (std::int64_t frame = first; frame < end; frame += stride) graph->drop_frames.insert(frame);
+  }
+}
+
 void RunRunCommand(RunArguments& args) {
   RunOptions& options = args.options;
   options.graph.policy = pipeline::ParsePolicy(args.policy);
   if (!args.frames.empty()) ParseFrameRange(args.frames, &options.graph);
+  ParseDropFrames(args.drop, &options.graph);
   options.progress = !args.quiet;
   options.video = !args.no_video;
   options.video_layout =
@@ -69,6 +87,10 @@ void AddRunCommand(CLI::App& app) {
       ->check(CLI::IsMember({"offline", "realtime"}))
       ->capture_default_str();
   command->add_option("--frames", args->frames, "Frame range A:B (frames A to B-1), A: or :B");
+  command->add_option("--drop", args->drop,
+                      "Offline: frames to drop at capture as the realtime policy would (F, A:B or A:B:S; "
+                      "e.g. a live run's /drops, replayed)")
+      ->delimiter(',');
   command->add_option("--in-flight", args->options.graph.max_in_flight, "Frames in flight at most")
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
