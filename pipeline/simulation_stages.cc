@@ -59,9 +59,21 @@ std::shared_ptr<const SimulationSetup> LoadSimulationSetup(const io::Scene& scen
   setup->material = scene.material;
   setup->options = *scene.simulation;
   setup->fps = scene.video.fps;
+  const auto load_motion = [&] {
+    return stages::LoadMotionModel(scene.preoperative->motion, setup->mesh.num_nodes(), scene.preoperative->period_s,
+                                   setup->options.motion_smoothing);
+  };
   if (setup->options.mode != "surface") {
-    setup->motion = stages::LoadMotionModel(scene.preoperative->motion, setup->mesh.num_nodes(),
-                                            scene.preoperative->period_s, setup->options.motion_smoothing);
+    setup->motion = setup->predictor = load_motion();
+  } else if (scene.preoperative) {
+    // Surface mode runs without the scan's node motion; it only predicts across dropped frames when it has it.
+    try {
+      setup->predictor = load_motion();
+    } catch (const Error& e) {
+      Logger("simulate").warn("surface mode without the scan's node motion ({}): across dropped frames the "
+                              "constraints move at the fastest tracked speed instead of following the scan",
+                              e.what());
+    }
   }
   return setup;
 }
@@ -121,7 +133,7 @@ void FemAdapter::Process(FramePacket& packet) {
     options.concurrent = setup_->options.concurrent;
     options.double_precision = setup_->options.precision == "double";
     fem_ = std::make_unique<stages::FemStage>(options, setup_->mesh, setup_->material, setup_->motion,
-                                              setup_->fixed_nodes);
+                                              setup_->predictor, setup_->fixed_nodes);
     first_frame_ = packet.index;
     Logger("simulate").info("simulation starts at frame {} ({} mode, {}, dt {} ms, critical dt {:.3f} ms)",
                             packet.index, setup_->options.mode, setup_->options.precision, 1e3 * options.dt_s,

@@ -50,13 +50,17 @@ class RegisterAdapter final : public PacketStage {
 };
 
 // What constraint mapping and the FEM stage share: the scene's mesh, its
-// mount and surface, the material, the scan's motion (null in surface mode)
-// and the scene's simulation options.
+// mount and surface, the material, the scan's motion and the scene's
+// simulation options.
 struct SimulationSetup {
   sim::TetMesh mesh;
   std::vector<int> fixed_nodes, surface_nodes;
   sim::Material material;
+  // The scan's motion as the simulation's driver: null in surface mode (no recovered forces).
   std::shared_ptr<const sim::CyclicMotionModel> motion;
+  // The scan's motion as the constraints' predictor across dropped frames:
+  // whenever the scene has one, in every mode (the same model as `motion` when that is set).
+  std::shared_ptr<const sim::CyclicMotionModel> predictor;
   io::Scene::Simulation options;
   double fps = 30;
 

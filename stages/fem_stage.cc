@@ -17,10 +17,16 @@ std::string FemStage::Options::Validate() const {
 }
 
 FemStage::FemStage(const Options& options, const sim::TetMesh& mesh, const sim::Material& material,
-                   std::shared_ptr<const sim::CyclicMotionModel> motion, const std::vector<int>& fixed_nodes)
-    : options_(options), reference_S_m_(mesh.X_m) {
+                   std::shared_ptr<const sim::CyclicMotionModel> motion,
+                   std::shared_ptr<const sim::CyclicMotionModel> predictor, const std::vector<int>& fixed_nodes)
+    : options_(options), reference_S_m_(mesh.X_m), gap_(predictor, options.phase_at_first_frame) {
   if (const std::string problem = options_.Validate(); !problem.empty()) {
     throw Error("invalid FEM stage options: " + problem, "FEM stage options", "correct the option");
+  }
+  if (predictor && predictor->dofs() != 3 * mesh.num_nodes()) {
+    throw Error("the predicting motion model has " + std::to_string(predictor->dofs() / 3) + " nodes, the mesh " +
+                    std::to_string(mesh.num_nodes()),
+                mesh.source, "predict with the motion recorded for this mesh");
   }
   sim::CoupledOptions coupled;
   coupled.mode = options_.mode;
@@ -72,20 +78,37 @@ void FemStage::Process(int frame, const NodeTargets& targets, FemFrameOutput* in
                     std::to_string(targets.nodes.size()) + " nodes",
                 "FEM stage, frame " + std::to_string(frame), "give 3 values per constrained node");
   }
+  const int from_frame = std::max(last_frame_, 0);  // the simulation starts at frame 0's time
   last_frame_ = frame;
-  std::visit([&](auto& simulation) { Step(*simulation, frame, targets, into); }, simulation_);
+  std::visit([&](auto& simulation) { Step(*simulation, from_frame, frame, targets, into); }, simulation_);
 }
 
+long long FemStage::StepOf(int frame) const { return std::llround(frame / (options_.fps * options_.dt_s)); }
+
 template <typename T>
-void FemStage::Step(sim::CoupledSimulation<T>& simulation, int frame, const NodeTargets& targets,
+void FemStage::Step(sim::CoupledSimulation<T>& simulation, int from_frame, int frame, const NodeTargets& targets,
                     FemFrameOutput* into) {
-  const long long step = std::llround(frame / (options_.fps * options_.dt_s));
-  const long long substeps = step - simulation.steps_taken();
+  const long long substeps = StepOf(frame) - simulation.steps_taken();
   // In surface mode nothing but the constraints drives the mesh; in volume
   // mode the tracked surface is only measured against, not imposed.
   const bool constrain = options_.mode != sim::SimulationMode::kVolume;
+  // Nodes tied anew start where the simulation has them (Advance moves each
+  // constrained node from its current displacement), and so do their paths.
   simulation.SetConstrainedNodes(constrain ? targets.nodes : std::vector<int>{});
-  simulation.Advance(static_cast<int>(substeps), constrain ? targets.displacement_S_m : std::vector<double>{});
+  period_targets_m_.clear();
+  if (constrain) {
+    const std::span<const T> u = simulation.displacement();
+    start_m_.clear();
+    for (int a : targets.nodes) {
+      for (int i = 0; i < 3; ++i) start_m_.push_back(u[3 * size_t(a) + i]);
+    }
+    gap_.Begin(targets, start_m_, simulation.time_s(), StepOf(frame) * options_.dt_s);
+  }
+  // One frame period per Advance: within a period the linear path is a motion the tissue makes.
+  for (int f = from_frame + 1; f <= frame; ++f) {
+    if (constrain) gap_.At(StepOf(f) * options_.dt_s, &period_targets_m_);
+    simulation.Advance(static_cast<int>(StepOf(f) - simulation.steps_taken()), period_targets_m_);
+  }
 
   FemFrameOutput& output = *into;
   FemFrameRecord& record = output.record;
@@ -95,6 +118,7 @@ void FemStage::Step(sim::CoupledSimulation<T>& simulation, int frame, const Node
   record.step = simulation.steps_taken();
   record.time_s = simulation.time_s();
   record.substeps = static_cast<int>(substeps);
+  record.frames_bridged = frame - from_frame;
   const std::span<const T> u = simulation.displacement();
   output.nodes_S_m = reference_S_m_;
   for (Eigen::Index a = 0; a < output.nodes_S_m.cols(); ++a) {

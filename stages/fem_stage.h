@@ -11,6 +11,7 @@
 #include "sim/motion_model.h"
 #include "sim/tet_mesh.h"
 #include "stages/constraints/constraint_mapper.h"
+#include "stages/constraints/gap_targets.h"
 
 namespace dg::stages {
 
@@ -20,6 +21,7 @@ struct FemFrameRecord {
   long long step = 0;                      // simulation step reached: round(t_j / dt)
   double time_s = 0;                       // step * dt
   int substeps = 0;                        // steps taken for this frame
+  int frames_bridged = 0;                  // frame periods advanced: 1, more after dropped frames, 0 at the start
   std::vector<float> sampled_nodes_S_m;    // 3 per sampled node (FemStage::sampled_nodes()), scan frame
   double kinetic_energy_j = 0;
   double min_jacobian = 0;                 // smallest element J at the last step
@@ -38,10 +40,14 @@ struct FemFrameOutput {
 
 // The FEM step of the graph (DESIGN.md section 4): per video frame j, advances
 // the image-constrained simulation (sim/coupled_simulation.h) to step
-// round(t_j / dt), t_j = j / fps, with the constrained nodes' targets
-// interpolated linearly across the frame's substeps (166 or 167 at 30 fps and
-// 0.2 ms), so the simulation clock never drifts from the video's. Runs in
-// float, as the paper's GPU solver did, or in double when asked.
+// round(t_j / dt), t_j = j / fps, so the simulation clock never drifts from
+// the video's: one frame period at a time (166 or 167 substeps at 30 fps and
+// 0.2 ms), with the constrained nodes' targets interpolated linearly across
+// each period's substeps. When frames were dropped before frame j, it bridges
+// the gap period by period, the targets at each skipped frame's time given by
+// GapTargets (the scan's motion plus the interpolated residual when the stage
+// has a predictor, else a bounded speed), never one straight line across the
+// gap. Runs in float, as the paper's GPU solver did, or in double when asked.
 // Stateful: frames in increasing order, one at a time (a serial node).
 class FemStage {
  public:
@@ -57,11 +63,15 @@ class FemStage {
     std::string Validate() const;      // empty when valid
   };
 
-  // `motion` may be null in surface mode. fixed_nodes: the mount's.
+  // `motion` drives the inverse simulation (null in surface mode). `predictor`
+  // (may be null) predicts the constraints across dropped frames: the scan's
+  // motion whenever the scene has one, in surface mode too, where it applies
+  // no force. fixed_nodes: the mount's.
   // @throws dg::Error for invalid options, a motion model for another mesh,
   // an unstable time step or a degenerate motion model (sim::CoupledSimulation).
   FemStage(const Options& options, const sim::TetMesh& mesh, const sim::Material& material,
-           std::shared_ptr<const sim::CyclicMotionModel> motion, const std::vector<int>& fixed_nodes);
+           std::shared_ptr<const sim::CyclicMotionModel> motion,
+           std::shared_ptr<const sim::CyclicMotionModel> predictor, const std::vector<int>& fixed_nodes);
 
   // The node displacements at frame 0 (the motion model at the registered
   // phase, zero without one): what ConstraintMapper needs.
@@ -78,7 +88,9 @@ class FemStage {
 
  private:
   template <typename T>
-  void Step(sim::CoupledSimulation<T>& simulation, int frame, const NodeTargets& targets, FemFrameOutput* into);
+  void Step(sim::CoupledSimulation<T>& simulation, int from_frame, int frame, const NodeTargets& targets,
+            FemFrameOutput* into);
+  long long StepOf(int frame) const;
 
   Options options_;
   Eigen::Matrix3Xd reference_S_m_;
@@ -86,6 +98,8 @@ class FemStage {
       simulation_;
   std::vector<int> sampled_nodes_;
   int last_frame_ = -1;
+  GapTargets gap_;
+  std::vector<double> start_m_, period_targets_m_;  // scratch, kept from frame to frame
 };
 
 // The nodes a FEM stage logs: `samples` ids spread evenly over 0..nodes-1

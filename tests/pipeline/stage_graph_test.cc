@@ -177,6 +177,7 @@ TEST_CASE("graph: built with exactly the stages the scene needs", "[pipeline][in
   }
   REQUIRE(sides == std::vector<std::string>{"texture", "volume", "meshes"});
   REQUIRE(full.simulation->motion != nullptr);  // combined: the scan's motion drives the inverse simulation
+  REQUIRE(full.simulation->predictor == full.simulation->motion);
   REQUIRE(full.given_registration == nullptr);
 
   SECTION("without a simulation the graph ends at tracking") {
@@ -216,11 +217,12 @@ TEST_CASE("graph: built with exactly the stages the scene needs", "[pipeline][in
             none.graph->stage_names().end());
   }
 
-  SECTION("surface mode loads no motion model: there is no inverse simulation") {
+  SECTION("surface mode has no inverse simulation, but predicts with the scan's motion across dropped frames") {
     std::string text = scene.text;
     text.replace(text.find("mode: combined"), 14, "mode: surface");
     const SceneGraph built = BuildSceneGraph(SceneFromText("scene_surface.yaml", text), {});
     REQUIRE(built.simulation->motion == nullptr);
+    REQUIRE(built.simulation->predictor != nullptr);
   }
 
   SECTION("a recording that is already rectified has no rectify node") {

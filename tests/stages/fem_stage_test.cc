@@ -138,7 +138,7 @@ ModeRun RunMode(sim::SimulationMode mode, const Truth& truth, bool double_precis
   options.phase_at_first_frame = truth.phase_at_first_frame;
   options.double_precision = double_precision;
   const auto motion = LoadMotionModel(TinyScene() + "/scan.h5", mesh.num_nodes(), truth.period_s);
-  FemStage stage(options, mesh, material, motion, mesh.node_sets.at("base"));
+  FemStage stage(options, mesh, material, motion, motion, mesh.node_sets.at("base"));
   ConstraintMapper::Options mapping;
   mapping.max_tie_distance_m = 6e-3;  // the tiny mesh's surface nodes are sparse
   ConstraintMapper mapper(mapping, mesh.X_m, stage.first_displacement_S_m(), mesh.node_sets.at("surface"),
@@ -231,12 +231,12 @@ TEST_CASE("fem stage: float and double precision agree", "[slow]") {
 TEST_CASE("fem stage: bad input is an error with a reason", "[unit]") {
   FemStage::Options options;
   options.dt_s = 0.1;
-  REQUIRE_THROWS_WITH(FemStage(options, io::ReadGmsh(TinyScene() + "/mesh.msh"), sim::Material{}, nullptr, {}),
+  REQUIRE_THROWS_WITH(FemStage(options, io::ReadGmsh(TinyScene() + "/mesh.msh"), sim::Material{}, nullptr, nullptr, {}),
                       Contains("frame period"));
   options = {};
   options.mode = sim::SimulationMode::kSurface;
   const sim::TetMesh mesh = io::ReadGmsh(TinyScene() + "/mesh.msh");
-  FemStage stage(options, mesh, sim::Material{}, nullptr, mesh.node_sets.at("base"));
+  FemStage stage(options, mesh, sim::Material{}, nullptr, nullptr, mesh.node_sets.at("base"));
   stage.Process(3, {});
   REQUIRE_THROWS_WITH(stage.Process(2, {}), Contains("increasing order"));
   NodeTargets bad;
