@@ -20,6 +20,7 @@ SimulationLog::SimulationLog(io::RunLog& log, std::shared_ptr<const SimulationSe
                                  {"t_s", H5Type::kDouble},
                                  {"step", H5Type::kInt64},
                                  {"substeps", H5Type::kInt32},
+                                 {"frames_bridged", H5Type::kInt32},
                                  {"kinetic_energy_j", H5Type::kDouble},
                                  {"min_jacobian", H5Type::kDouble},
                                  {"constrained_nodes", H5Type::kInt32},
@@ -42,7 +43,8 @@ void SimulationLog::Consume(const FramePacket& packet) {
   static const float kNoSample = 0;  // a zero-width column is not allowed: one zero stands in
   const std::span<const float> sampled =
       sampled_ > 0 ? std::span<const float>(r.sampled_nodes_S_m) : std::span<const float>(&kNoSample, 1);
-  sim_->AppendRow({packet.index, packet.t_s, std::int64_t{r.step}, std::int32_t{r.substeps}, r.kinetic_energy_j,
+  sim_->AppendRow({packet.index, packet.t_s, std::int64_t{r.step}, std::int32_t{r.substeps},
+                   std::int32_t{r.frames_bridged}, r.kinetic_energy_j,
                    r.min_jacobian, std::int32_t{r.constrained_nodes}, r.constraint_residual_rms_mm,
                    r.constraint_residual_max_mm, r.dt_over_dt_critical, sampled});
 }

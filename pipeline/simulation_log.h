@@ -16,8 +16,9 @@ namespace dg::pipeline {
 //                  from the first frame that carries one; its attribute
 //                  `frame` is that frame (-1 when the scene gave it);
 //   /sim           one row per simulated frame: frame, t_s, step, substeps,
-//                  kinetic_energy_j, min_jacobian, constrained_nodes,
-//                  residual_rms_mm, residual_max_mm, dt_over_dt_critical and
+//                  frames_bridged (frame periods advanced: 1, or 1 + the
+//                  frames dropped since the last simulated frame),
+//                  kinetic_energy_j, min_jacobian, constrained_nodes, residual_rms_mm, residual_max_mm, dt_over_dt_critical and
 //                  sampled_nodes_S_m (3 per sampled node, scan frame, metres);
 //                  /sim/sampled_node_ids names the sampled nodes.
 class SimulationLog {
