@@ -207,10 +207,6 @@ sim::TetMesh MeshSolid(const std::string& where, double volume_m3, int target_te
 
   const int dropped = sim::RemoveUnusedNodes(&mesh);
   sim::OrientElements(&mesh);
-  // Gmsh numbers nodes entity by entity (corners, edges, faces, then the
-  // volume), so an element's nodes lie far apart in memory; a generated mesh's
-  // numbering is ours to choose, and a spatial one makes the solver ~1.5x faster.
-  sim::RenumberNodesForLocality(&mesh);
 
   MeshReport r;
   r.element_size_m = best_h;

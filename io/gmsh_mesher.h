@@ -14,8 +14,9 @@ namespace dg::io {
 // Gmsh is a process-wide singleton, so calls from several threads are
 // serialised on a mutex; Gmsh prints nothing, and its failures become dg::Error.
 // The returned mesh is in metres, has no unused nodes, is positively
-// oriented (sim::OrientElements has run) and has its nodes numbered along a
-// Morton curve (sim::RenumberNodesForLocality) for the solver's memory access.
+// oriented (sim::OrientElements has run) and keeps Gmsh's node order, entity
+// by entity, as Gmsh writes it to a file (the solver's model lays nodes out
+// for its own memory access, whatever their order).
 
 // An axis-aligned box with its min corner at the origin, so its bottom face is
 // z = 0. Node sets "xmin", "xmax", "ymin", "ymax", "zmin", "zmax" (the nodes of
