@@ -41,6 +41,7 @@ std::string SolverOptions::Validate() const {
   if (damping_per_s * dt_s >= 2.0) return "alpha * dt must be below 2 for the update to be stable";
   if (!gravity_m_s2.allFinite()) return "gravity must be finite";
   if (!(stability_safety > 0 && stability_safety <= 1)) return "stability_safety must lie in (0, 1]";
+  if (threads < 0) return "threads must be 0 (the process's parallelism) or positive";
   if (energy_window_steps < 1 || !(energy_growth_limit > 1)) {
     return "energy_window_steps must be >= 1 and energy_growth_limit > 1";
   }
@@ -52,7 +53,7 @@ TledSolver<T>::TledSolver(std::shared_ptr<const TledModel<T>> model, BoundaryCon
                           const SolverOptions& options, const StabilityReport* stability,
                           std::shared_ptr<StepTeam> team)
     : model_(std::move(model)), conditions_(std::move(conditions)), options_(options), team_(std::move(team)) {
-  if (!team_) team_ = std::make_shared<StepTeam>(DefaultTeamSize());
+  if (!team_) team_ = std::make_shared<StepTeam>(options_.threads > 0 ? options_.threads : DefaultTeamSize());
   if (const std::string problem = options_.Validate(); !problem.empty()) {
     throw Error("invalid solver options: " + problem, "solver options", "correct the option");
   }

@@ -27,6 +27,9 @@ struct SolverOptions {
   Eigen::Vector3d gravity_m_s2 = Eigen::Vector3d::Zero();
   TimeStepPolicy time_step_policy = TimeStepPolicy::kRefuse;
   double stability_safety = 0.9;   // allowed fraction of the estimated dt_cr
+  // Threads stepping the solver (its StepTeam's size); 0: DefaultTeamSize(),
+  // the process's TBB parallelism. 1 where solvers already run side by side.
+  int threads = 0;
   // Blow-up: kinetic energy growing more than energy_growth_limit times in each
   // of the last two windows of energy_window_steps steps. Physical motion from
   // rest grows as a power of t (at most (2W+1)^4/(W+1)^4 = 11x for the second
@@ -57,7 +60,8 @@ struct BoundaryConditions {
 // Keeps the three time levels the formula needs and nothing else.
 //
 // Threading: Advance() runs its steps on a StepTeam (one given, or its own of
-// DefaultTeamSize() threads, i.e. bounded by the caller's tbb::global_control):
+// options.threads, by default bounded by the caller's tbb::global_control;
+// docs/solver.md):
 // per step an element pass and a node pass over fixed chunks, each ended by
 // the team's barrier, the step's reductions and checks in the second
 // barrier's serial section. Results do not depend on the thread count. One

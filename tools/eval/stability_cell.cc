@@ -143,6 +143,7 @@ std::unique_ptr<sim::TledSolver<float>> MakeSolver(const StudyMesh& study, const
   sim::SolverOptions options;
   options.dt_s = dt_s;
   options.time_step_policy = policy;
+  options.threads = 1;  // the study runs its cells side by side
   auto model = std::make_shared<const sim::TledModel<float>>(study.mesh, material);
   return std::make_unique<sim::TledSolver<float>>(model, Conditions(study), options, &stability);
 }
