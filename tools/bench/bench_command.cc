@@ -127,6 +127,11 @@ void AddBenchCommand(CLI::App& app) {
           ->delimiter(',')
           ->capture_default_str();
   sim->add_option("--threads", options->threads, "Thread counts")->delimiter(',')->capture_default_str();
+  sim->add_option("--mesh", options->mesh_path,
+                  "forward: a Gmsh .msh file (metres) instead of the boxes, in its own node order; its lowest z "
+                  "face fixed, its highest pressed down")
+      ->check(CLI::ExistingFile);
+  sim->add_flag("--shuffled", options->shuffled_too, "forward: also each mesh with its nodes in a random order");
   sim->add_option("--precision", options->precisions, "float and/or double")
       ->delimiter(',')
       ->check(CLI::IsMember({"float", "double"}))

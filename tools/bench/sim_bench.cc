@@ -4,12 +4,16 @@
 #include <chrono>
 #include <cstdio>
 #include <memory>
+#include <numeric>
+#include <random>
 
 #include <tbb/global_control.h>
 
 #include "io/gmsh_mesher.h"
+#include "io/gmsh_reader.h"
 #include "sim/coupled_simulation.h"
 #include "sim/error.h"
+#include "sim/step_team.h"
 #include "sim/tled_solver.h"
 #include "tools/bench/bench_json.h"
 #include "tools/json_text.h"
@@ -22,23 +26,84 @@ namespace {
 constexpr double kPressDown_m = 1e-3;
 
 struct BenchProblem {
+  std::string name;
   sim::TetMesh mesh;
   sim::BoundaryConditions conditions;
   sim::StabilityReport stability;
 };
 
-BenchProblem MakeBenchProblem(int target_tets) {
+// The mesh's lowest z face fixed, its highest pressed down.
+BenchProblem MakeBenchProblem(std::string name, sim::TetMesh mesh) {
   BenchProblem problem;
-  problem.mesh = io::MeshBox({Eigen::Vector3d(0.05, 0.05, 0.05), target_tets});
-  for (int a : problem.mesh.node_sets.at("zmin")) {
+  problem.name = std::move(name);
+  problem.mesh = std::move(mesh);
+  const Eigen::Matrix<double, 3, 2> box = sim::BoundingBox(problem.mesh);
+  const double tolerance_m = 1e-6 * (box.col(1) - box.col(0)).norm();
+  const Eigen::Vector3d up = Eigen::Vector3d::UnitZ();
+  for (int a : sim::NodesNearPlane(problem.mesh, box.col(0), up, tolerance_m)) {
     for (int axis = 0; axis < 3; ++axis) problem.conditions.fixed_dofs.push_back(3 * a + axis);
   }
-  for (int a : problem.mesh.node_sets.at("zmax")) problem.conditions.prescribed_dofs.push_back(3 * a + 2);
+  for (int a : sim::NodesNearPlane(problem.mesh, box.col(1), up, tolerance_m)) {
+    problem.conditions.prescribed_dofs.push_back(3 * a + 2);
+  }
   std::vector<int> constrained = problem.conditions.fixed_dofs;
   constrained.insert(constrained.end(), problem.conditions.prescribed_dofs.begin(),
                      problem.conditions.prescribed_dofs.end());
   problem.stability = sim::EstimateStability(problem.mesh, sim::Material{}, constrained);
   return problem;
+}
+
+// The same mesh with its nodes listed in a random (fixed) order.
+sim::TetMesh ShuffleNodes(const sim::TetMesh& mesh) {
+  std::vector<int> new_id(mesh.num_nodes());
+  std::iota(new_id.begin(), new_id.end(), 0);
+  std::shuffle(new_id.begin(), new_id.end(), std::mt19937(20261201));
+  sim::TetMesh shuffled = mesh;
+  for (int a = 0; a < mesh.num_nodes(); ++a) shuffled.X_m.col(new_id[a]) = mesh.X_m.col(a);
+  for (int e = 0; e < mesh.num_tets(); ++e) {
+    for (int c = 0; c < 4; ++c) shuffled.tets(c, e) = new_id[mesh.tets(c, e)];
+  }
+  for (auto& [name, nodes] : shuffled.node_sets) {
+    for (int& a : nodes) a = new_id[a];
+    std::sort(nodes.begin(), nodes.end());
+  }
+  return shuffled;
+}
+
+// The forward problems: each target size's Gmsh box, or the given file; each
+// also shuffled when asked.
+std::vector<BenchProblem> ForwardProblems(const SimBenchOptions& options) {
+  std::vector<std::pair<std::string, sim::TetMesh>> meshes;
+  if (!options.mesh_path.empty()) {
+    meshes.emplace_back(options.mesh_path, io::ReadGmsh(options.mesh_path));
+  } else {
+    for (int target : options.tets) {
+      meshes.emplace_back("Gmsh box", io::MeshBox({Eigen::Vector3d(0.05, 0.05, 0.05), target}));
+    }
+  }
+  std::vector<BenchProblem> problems;
+  for (auto& [name, mesh] : meshes) {
+    if (options.shuffled_too) problems.push_back(MakeBenchProblem(name + ", nodes shuffled", ShuffleNodes(mesh)));
+    problems.push_back(MakeBenchProblem(name, std::move(mesh)));
+  }
+  return problems;
+}
+
+// Nanoseconds per StepTeam::Sync() of `threads` workers with nothing between
+// the barriers: the cost a step pays twice for its synchronisation.
+double MeasureBarrierNs(int threads) {
+  if (threads < 2) return 0;
+  sim::StepTeam team(threads);
+  constexpr int kSyncs = 200000;
+  auto run = [&] {
+    team.Run([&](int) {
+      for (int k = 0; k < kSyncs; ++k) team.Sync();
+    });
+  };
+  run();  // wakes the workers and warms the lines the barrier uses
+  const auto start = std::chrono::steady_clock::now();
+  run();
+  return std::chrono::duration<double, std::nano>(std::chrono::steady_clock::now() - start).count() / kSyncs;
 }
 
 // The phantom's mesh and motion as `dynaguide phantom` makes them.
@@ -101,10 +166,11 @@ std::vector<double> TimeRepeats(int tets, int steps, int repeats, Advance advanc
 }
 
 template <typename T>
-SimBenchRecord MakeRecord(const sim::TetMesh& mesh, int threads, const std::string& mode,
+SimBenchRecord MakeRecord(const std::string& name, const sim::TetMesh& mesh, int threads, const std::string& mode,
                           const std::vector<double>& rates, const sim::StabilityReport& stability,
                           const SimBenchOptions& options) {
   SimBenchRecord record;
+  record.mesh = name;
   record.mesh_tets = mesh.num_tets();
   record.mesh_nodes = mesh.num_nodes();
   record.threads = threads;
@@ -132,7 +198,7 @@ SimBenchRecord Measure(const BenchProblem& problem, int threads, const SimBenchO
   const std::vector<double> rates =
       TimeRepeats(problem.mesh.num_tets(), StepsPerRepeat(options) * solver.substeps_per_step(), options.repeats,
                   [&](int steps) { solver.Advance(steps / solver.substeps_per_step(), targets); });
-  return MakeRecord<T>(problem.mesh, threads, "forward", rates, problem.stability, options);
+  return MakeRecord<T>(problem.name, problem.mesh, threads, "forward", rates, problem.stability, options);
 }
 
 // The image-constrained simulation in one mode; the constrained nodes (none
@@ -162,7 +228,7 @@ template <typename T>
 SimBenchRecord MeasureCoupled(const PhantomProblem& problem, const std::string& mode_name, int threads,
                               const SimBenchOptions& options) {
   const sim::SimulationMode mode = sim::ParseSimulationMode(mode_name);
-  SimBenchRecord record = MakeRecord<T>(problem.mesh, threads, mode_name,
+  SimBenchRecord record = MakeRecord<T>("phantom", problem.mesh, threads, mode_name,
                                         MeasureCoupledRates<T>(problem, mode, true, threads, options),
                                         problem.stability, options);
   if (mode != sim::SimulationMode::kSurface) {
@@ -181,15 +247,16 @@ std::vector<SimBenchRecord> RunSimBench(const SimBenchOptions& options, bool pro
   auto report = [&] {
     const SimBenchRecord& r = records.back();
     if (!progress) return;
-    std::fprintf(stderr, "bench sim: %s, %d tets, %s, %d thread%s: %.1f M tet-steps/s (median of %d)\n",
-                 r.mode.c_str(), r.mesh_tets, r.precision.c_str(), r.threads, r.threads > 1 ? "s" : "",
-                 r.tet_steps_per_s / 1e6, r.repeats);
+    std::fprintf(stderr, "bench sim: %s, %s, %d tets, %s, %d thread%s: %.1f M tet-steps/s (median of %d)\n",
+                 r.mode.c_str(), r.mesh.c_str(), r.mesh_tets, r.precision.c_str(), r.threads,
+                 r.threads > 1 ? "s" : "", r.tet_steps_per_s / 1e6, r.repeats);
   };
   for (const std::string& mode : options.modes) {
     if (mode != "forward") sim::ParseSimulationMode(mode);  // rejects an unknown mode before any work
-    for (int target : options.tets) {
-      if (mode == "forward") {
-        const BenchProblem problem = MakeBenchProblem(target);
+  }
+  for (const std::string& mode : options.modes) {
+    if (mode == "forward") {
+      for (const BenchProblem& problem : ForwardProblems(options)) {
         for (const std::string& precision : options.precisions) {
           for (int threads : options.threads) {
             records.push_back(precision == "float" ? Measure<float>(problem, threads, options)
@@ -197,8 +264,10 @@ std::vector<SimBenchRecord> RunSimBench(const SimBenchOptions& options, bool pro
             report();
           }
         }
-        continue;
       }
+      continue;
+    }
+    for (int target : options.tets) {
       const PhantomProblem problem = MakePhantomProblem(target);
       for (const std::string& precision : options.precisions) {
         for (int threads : options.threads) {
@@ -209,38 +278,49 @@ std::vector<SimBenchRecord> RunSimBench(const SimBenchOptions& options, bool pro
       }
     }
   }
+  for (SimBenchRecord& r : records) {
+    r.barrier_ns = MeasureBarrierNs(r.threads);
+    for (const SimBenchRecord& one : records) {
+      if (one.threads == 1 && one.mesh == r.mesh && one.mesh_tets == r.mesh_tets && one.mode == r.mode &&
+          one.precision == r.precision) {
+        r.speedup_over_1_thread = r.tet_steps_per_s / one.tet_steps_per_s;
+      }
+    }
+  }
   return records;
 }
 
 void WriteSimBenchJson(const std::string& path, const std::vector<SimBenchRecord>& records) {
   std::vector<std::string> fields;
   for (const SimBenchRecord& r : records) {
-    fields.push_back(Printed("\"mesh_tets\": %d, \"mesh_nodes\": %d, \"threads\": %d, \"precision\": %s, \"mode\": %s, "
-                             "\"tet_steps_per_s\": %.6g, \"tet_steps_per_s_min\": %.6g, \"tet_steps_per_s_max\": %.6g, "
+    fields.push_back(Printed("\"mesh\": %s, \"mesh_tets\": %d, \"mesh_nodes\": %d, \"threads\": %d, \"precision\": %s, "
+                             "\"mode\": %s, \"tet_steps_per_s\": %.6g, \"tet_steps_per_s_min\": %.6g, "
+                             "\"tet_steps_per_s_max\": %.6g, \"speedup_over_1_thread\": %.4g, \"barrier_ns\": %.4g, "
                              "\"realtime_factor\": %.6g, \"dt_s\": %.6g, \"dt_critical_s\": %.6g, \"steps_per_repeat\": %d, "
                              "\"repeats\": %d, \"sequential_tet_steps_per_s\": %.6g, \"concurrent_gain\": %.4g",
-                             r.mesh_tets, r.mesh_nodes, r.threads, JsonQuoted(r.precision).c_str(), JsonQuoted(r.mode).c_str(),
-                             r.tet_steps_per_s, r.tet_steps_per_s_min, r.tet_steps_per_s_max, r.realtime_factor, r.dt_s,
-                             r.dt_critical_s, r.steps_per_repeat, r.repeats, r.sequential_tet_steps_per_s,
-                             r.concurrent_gain));
+                             JsonQuoted(r.mesh).c_str(), r.mesh_tets, r.mesh_nodes, r.threads,
+                             JsonQuoted(r.precision).c_str(), JsonQuoted(r.mode).c_str(), r.tet_steps_per_s,
+                             r.tet_steps_per_s_min, r.tet_steps_per_s_max, r.speedup_over_1_thread, r.barrier_ns,
+                             r.realtime_factor, r.dt_s, r.dt_critical_s, r.steps_per_repeat, r.repeats,
+                             r.sequential_tet_steps_per_s, r.concurrent_gain));
   }
   WriteBenchJson(path, fields);
 }
 
 std::string SimBenchTable(const std::vector<SimBenchRecord>& records) {
   std::string table =
-      "| mode | tets | nodes | precision | threads | M tet-steps/s (median) | min-max | real-time factor | "
-      "concurrent gain | dt_cr ms |\n"
-      "|---|---:|---:|---|---:|---:|---:|---:|---:|---:|\n";
+      "| mode | mesh | tets | nodes | precision | threads | M tet-steps/s (median) | min-max | x 1 thread | "
+      "barrier ns | real-time factor | concurrent gain | dt_cr ms |\n"
+      "|---|---|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|\n";
   for (const SimBenchRecord& r : records) {
-    char line[256];
-    char gain[16] = "-";
+    char gain[16] = "-", speedup[16] = "-", barrier[16] = "-";
     if (r.concurrent_gain > 0) std::snprintf(gain, sizeof gain, "%.2f", r.concurrent_gain);
-    std::snprintf(line, sizeof line, "| %s | %d | %d | %s | %d | %.1f | %.1f-%.1f | %.2f | %s | %.3f |\n",
-                  r.mode.c_str(), r.mesh_tets, r.mesh_nodes, r.precision.c_str(), r.threads, r.tet_steps_per_s / 1e6,
-                  r.tet_steps_per_s_min / 1e6, r.tet_steps_per_s_max / 1e6, r.realtime_factor, gain,
-                  r.dt_critical_s * 1e3);
-    table += line;
+    if (r.speedup_over_1_thread > 0) std::snprintf(speedup, sizeof speedup, "%.2f", r.speedup_over_1_thread);
+    if (r.barrier_ns > 0) std::snprintf(barrier, sizeof barrier, "%.0f", r.barrier_ns);
+    table += Printed("| %s | %s | %d | %d | %s | %d | %.1f | %.1f-%.1f | %s | %s | %.2f | %s | %.3f |\n", r.mode.c_str(),
+                     r.mesh.c_str(), r.mesh_tets, r.mesh_nodes, r.precision.c_str(), r.threads,
+                     r.tet_steps_per_s / 1e6, r.tet_steps_per_s_min / 1e6, r.tet_steps_per_s_max / 1e6, speedup,
+                     barrier, r.realtime_factor, gain, r.dt_critical_s * 1e3);
   }
   return table;
 }

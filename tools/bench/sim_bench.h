@@ -11,6 +11,10 @@ struct SimBenchOptions {
   std::vector<std::string> modes{"forward"};
   std::vector<int> tets{5000, 20000, 80000};  // the phantom modes' default is the default phantom's 8000
   std::vector<int> threads{1, 2};
+  // forward: a Gmsh .msh file (metres) instead of the generated boxes, in its
+  // own node order: its lowest z face fixed, its highest pressed down.
+  std::string mesh_path;
+  bool shuffled_too = false;  // forward: also each mesh with its nodes in a random order
   std::vector<std::string> precisions{"float", "double"};
   int repeats = 7;                 // timed runs per configuration; the median is reported
   double simulated_per_repeat_s = 0.05;  // 250 steps of 0.2 ms
@@ -19,6 +23,7 @@ struct SimBenchOptions {
 
 // One line of the saved table: the interface users script against (issue 2).
 struct SimBenchRecord {
+  std::string mesh;  // where the mesh came from: "Gmsh box", "phantom", a file; ", nodes shuffled"
   int mesh_tets = 0;
   int mesh_nodes = 0;
   int threads = 0;
@@ -33,10 +38,15 @@ struct SimBenchRecord {
   // one after the other, and the concurrent scheme's gain over it.
   double sequential_tet_steps_per_s = 0;
   double concurrent_gain = 0;
+  // The rate over the same configuration's on 1 thread in the same run (0 if not measured).
+  double speedup_over_1_thread = 0;
+  // The solver's barrier (sim::StepTeam::Sync) with nothing to wait for, per
+  // call, at this thread count, measured in the same run; a step has two.
+  double barrier_ns = 0;
 };
 
 // Forward TLED throughput on Gmsh boxes (5 cm, the paper's material, base
-// fixed, top pressed down 1 mm), and the image-constrained simulation's on the
+// fixed, top pressed down 1 mm) or on a mesh file, and the image-constrained simulation's on the
 // phantom's mesh (its 4D CT's motion model, mount fixed, every third free
 // surface node following the motion model as tracked features would), for
 // every combination of the options. Tet-steps count each simulated step once
