@@ -134,7 +134,11 @@ void CoupledSimulation<T>::AdvanceCoupled(int steps) {
   DG_CHECK(solver.node_chunks() == inverse.node_chunks());
   solver.SetElementLoads(inverse.weights().data());
   const TledModel<T>& model = *model_;
-  const int element_chunks = solver.element_chunks(), node_chunks = solver.node_chunks();
+  // Both sides share the forward solver's home ranges; the interleaved element
+  // pass has two chunks (one a side) for each of the model's.
+  const ChunkHomes& homes = solver.homes_;
+  std::vector<int> both_sides_homes(homes.elements.size());
+  for (size_t w = 0; w < homes.elements.size(); ++w) both_sides_homes[w] = 2 * homes.elements[w];
   // The step's end: the inverse side's checks and next weights, the forward
   // side's reductions and checks (in a barrier's serial section).
   auto finish = [&] {
@@ -151,7 +155,7 @@ void CoupledSimulation<T>::AdvanceCoupled(int steps) {
       if (options_.concurrent) {
         // Both sides' element chunks in one pass, interleaved so that a
         // worker's home range holds both sides' elements of the same nodes.
-        team.ForEachChunk(worker, 2 * element_chunks, [&](int c) {
+        team.ForEachChunk(worker, both_sides_homes, [&](int c) {
           if (c % 2 == 0) {
             solver.ElementChunk(c / 2);
           } else {
@@ -161,7 +165,7 @@ void CoupledSimulation<T>::AdvanceCoupled(int steps) {
         team.Sync();
         // Both sides' node chunks cover the same nodes: one walk over each
         // node's incidences gathers both sides' forces (the sums GatherNodalForce forms).
-        team.ForEachChunk(worker, node_chunks, [&](int c) {
+        team.ForEachChunk(worker, homes.nodes, [&](int c) {
           const int begin = c * kNodesPerChunk, end = std::min(begin + kNodesPerChunk, model.num_nodes());
           T forward_forces[3 * kNodesPerChunk], inverse_forces[3 * kNodesPerChunk];
           for (int a = begin; a < end; ++a) {
@@ -172,13 +176,13 @@ void CoupledSimulation<T>::AdvanceCoupled(int steps) {
           inverse.NodeChunk(c, inverse_forces);
         });
       } else {
-        team.ForEachChunk(worker, element_chunks, [&](int c) { solver.ElementChunk(c); });
+        team.ForEachChunk(worker, homes.elements, [&](int c) { solver.ElementChunk(c); });
         team.Sync();
-        team.ForEachChunk(worker, node_chunks, [&](int c) { solver.NodeChunk(c, fraction_end); });
+        team.ForEachChunk(worker, homes.nodes, [&](int c) { solver.NodeChunk(c, fraction_end); });
         team.Sync();
-        team.ForEachChunk(worker, inverse.element_chunks(), [&](int c) { inverse.ElementChunk(c); });
+        team.ForEachChunk(worker, homes.elements, [&](int c) { inverse.ElementChunk(c); });
         team.Sync();
-        team.ForEachChunk(worker, node_chunks, [&](int c) { inverse.NodeChunk(c); });
+        team.ForEachChunk(worker, homes.nodes, [&](int c) { inverse.NodeChunk(c); });
       }
       if (!team.Sync(finish)) return;
     }

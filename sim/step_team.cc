@@ -26,7 +26,7 @@ inline void CpuRelax() {
 }  // namespace
 
 StepTeam::StepTeam(int threads) : size_(threads), claims_(std::max(threads, 1)) {
-  DG_CHECK(threads >= 1);
+  DG_CHECK(threads >= 1 && threads <= kMaxEvenSplit);
   threads_.reserve(size_ - 1);
   for (int worker = 1; worker < size_; ++worker) threads_.emplace_back([this, worker] { WorkerLoop(worker); });
 }
@@ -87,7 +87,7 @@ void StepTeam::Publish(std::atomic<std::uint32_t>& value, std::atomic<int>& slee
 int DefaultTeamSize() {
   const int allowed =
       static_cast<int>(tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism));
-  return std::max(1, std::min(allowed, tbb::this_task_arena::max_concurrency()));
+  return std::clamp(std::min(allowed, tbb::this_task_arena::max_concurrency()), 1, StepTeam::kMaxEvenSplit);
 }
 
 }  // namespace dg::sim

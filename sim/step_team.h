@@ -4,8 +4,11 @@
 #include <cstdint>
 #include <exception>
 #include <functional>
+#include <span>
 #include <thread>
 #include <vector>
+
+#include "sim/error.h"
 
 namespace dg::sim {
 
@@ -36,15 +39,21 @@ class StepTeam {
   StepTeam& operator=(const StepTeam&) = delete;
 
   int size() const { return size_; }
+  // The largest team ForEachChunk(worker, count, body) splits on the stack.
+  static constexpr int kMaxEvenSplit = 64;
 
   // Runs body(worker) on every worker at once; returns when all have returned.
   // Every worker must make the same sequence of Sync() calls. Rethrows the
   // first exception a serial section threw.
   void Run(const std::function<void(int worker)>& body);
 
-  // Inside Run(): body(chunk) for every chunk in [0, count), each exactly once
-  // over the team, worker w starting on its home range [count w / size,
-  // count (w + 1) / size). The pass must end with Sync() before the next one.
+  // Inside Run(): body(chunk) for every chunk in [homes[0], homes[size()]),
+  // each exactly once over the team, worker w starting on its home range
+  // [homes[w], homes[w + 1]) (non-decreasing). The pass must end with Sync()
+  // before the next one.
+  template <typename Body>
+  void ForEachChunk(int worker, std::span<const int> homes, Body&& body);
+  // The same with [0, count) split evenly.
   template <typename Body>
   void ForEachChunk(int worker, int count, Body&& body);
 
@@ -102,10 +111,22 @@ int DefaultTeamSize();
 
 template <typename Body>
 void StepTeam::ForEachChunk(int worker, int count, Body&& body) {
+  if (size_ == 1) {
+    for (int chunk = 0; chunk < count; ++chunk) body(chunk);
+    return;
+  }
+  int homes[kMaxEvenSplit + 1];
+  DG_CHECK(size_ <= kMaxEvenSplit);
+  for (int w = 0; w <= size_; ++w) homes[w] = static_cast<int>(std::int64_t(count) * w / size_);
+  ForEachChunk(worker, std::span<const int>(homes, size_ + 1), std::forward<Body>(body));
+}
+
+template <typename Body>
+void StepTeam::ForEachChunk(int worker, std::span<const int> homes, Body&& body) {
   for (int k = 0; k < size_; ++k) {
     const int owner = (worker + k) % size_;
-    const int begin = static_cast<int>(std::int64_t(count) * owner / size_);
-    const int end = static_cast<int>(std::int64_t(count) * (owner + 1) / size_);
+    const int begin = homes[owner];
+    const int end = homes[owner + 1];
     for (;;) {
       const int chunk = begin + claims_[owner].next.fetch_add(1, std::memory_order_relaxed);
       if (chunk >= end) break;

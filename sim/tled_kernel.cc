@@ -213,6 +213,36 @@ void ComputeElementForcesParallel(const TledModel<T>& model, const T* u, T* forc
       tbb::auto_partitioner());
 }
 
+template <typename T>
+ChunkHomes PartitionChunks(const TledModel<T>& model, int parts) {
+  constexpr int W = TledModel<T>::kLanes;
+  const int element_chunks = ElementChunks(model), node_chunks = NodeChunks(model);
+  // The first (smallest) layout node of the element in `slot`: the sort key.
+  auto first_node = [&](int slot) {
+    const int32_t* nodes = model.block_nodes(slot / W);
+    const int lane = slot % W;
+    return std::min({nodes[lane], nodes[W + lane], nodes[2 * W + lane], nodes[3 * W + lane]});
+  };
+  ChunkHomes homes{{0}, {0}};
+  for (int w = 1; w < parts; ++w) {
+    const int middle_slot = static_cast<int>(std::int64_t(model.num_tets()) * w / parts);
+    const int node_chunk = std::clamp((first_node(middle_slot) + kNodesPerChunk / 2) / kNodesPerChunk,
+                                      homes.nodes.back(), node_chunks);
+    int element_chunk = homes.elements.back();
+    while (element_chunk < element_chunks &&
+           first_node(element_chunk * kBlocksPerChunk * W) < node_chunk * kNodesPerChunk) {
+      ++element_chunk;
+    }
+    homes.nodes.push_back(node_chunk);
+    homes.elements.push_back(element_chunk);
+  }
+  homes.nodes.push_back(node_chunks);
+  homes.elements.push_back(element_chunks);
+  return homes;
+}
+
+template ChunkHomes PartitionChunks<float>(const TledModel<float>&, int);
+template ChunkHomes PartitionChunks<double>(const TledModel<double>&, int);
 template float InverseCubeRoot<float>(float);
 template double InverseCubeRoot<double>(double);
 template float ComputeElementForces<float>(const TledModel<float>&, const float*, float*, int, int);

@@ -1,6 +1,7 @@
 #pragma once
 
 #include <span>
+#include <vector>
 
 #include "sim/tled_model.h"
 
@@ -69,6 +70,19 @@ template <typename T>
 int NodeChunks(const TledModel<T>& model) {
   return (model.num_nodes() + kNodesPerChunk - 1) / kNodesPerChunk;
 }
+
+// Home ranges of element and node chunks for a team of `parts` workers
+// (StepTeam::ForEachChunk), each parts + 1 bounds, that keep a worker's
+// elements and nodes in the same region of the body: elements are sorted by
+// their first layout node, so the node chunks are split where the elements'
+// count is split evenly, and the element chunks where their first node
+// crosses into the next worker's nodes. A node then gathers mostly forces its
+// own worker wrote in the same step, from its own core's cache.
+struct ChunkHomes {
+  std::vector<int> elements, nodes;
+};
+template <typename T>
+ChunkHomes PartitionChunks(const TledModel<T>& model, int parts);
 
 // Sum of the element forces at node a, in the model's fixed order (deterministic).
 template <typename T>

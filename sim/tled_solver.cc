@@ -54,6 +54,7 @@ TledSolver<T>::TledSolver(std::shared_ptr<const TledModel<T>> model, BoundaryCon
                           std::shared_ptr<StepTeam> team)
     : model_(std::move(model)), conditions_(std::move(conditions)), options_(options), team_(std::move(team)) {
   if (!team_) team_ = std::make_shared<StepTeam>(options_.threads > 0 ? options_.threads : DefaultTeamSize());
+  homes_ = PartitionChunks(*model_, team_->size());
   if (const std::string problem = options_.Validate(); !problem.empty()) {
     throw Error("invalid solver options: " + problem, "solver options", "correct the option");
   }
@@ -210,10 +211,10 @@ void TledSolver<T>::Advance(int steps, std::span<const double> targets_m) {
   const int total = steps * substeps_;
   team_->Run([&](int worker) {
     for (int s = 0; s < total; ++s) {
-      team_->ForEachChunk(worker, element_chunks(), [&](int c) { ElementChunk(c); });
+      team_->ForEachChunk(worker, homes_.elements, [&](int c) { ElementChunk(c); });
       team_->Sync();
       const double fraction_end = double(s + 1) / total;
-      team_->ForEachChunk(worker, node_chunks(), [&](int c) { NodeChunk(c, fraction_end); });
+      team_->ForEachChunk(worker, homes_.nodes, [&](int c) { NodeChunk(c, fraction_end); });
       if (!team_->Sync([&] {
             FinishStep();
             CheckStep();

@@ -10,6 +10,7 @@
 #include "sim/aligned_vector.h"
 #include "sim/stability.h"
 #include "sim/step_team.h"
+#include "sim/tled_kernel.h"
 #include "sim/tled_model.h"
 
 namespace dg::sim {
@@ -166,6 +167,7 @@ class TledSolver {
   SolverOptions options_;
   StabilityReport stability_;
   std::shared_ptr<StepTeam> team_;
+  ChunkHomes homes_;  // each worker's element and node chunks (PartitionChunks)
   int substeps_ = 1;
 
   // Per node: A dt^2 / M_a with A = 2 / (2 + alpha dt); per component A dt^2 g.
