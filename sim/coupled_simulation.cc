@@ -139,54 +139,57 @@ void CoupledSimulation<T>::AdvanceCoupled(int steps) {
   const ChunkHomes& homes = solver.homes_;
   std::vector<int> both_sides_homes(homes.elements.size());
   for (size_t w = 0; w < homes.elements.size(); ++w) both_sides_homes[w] = 2 * homes.elements[w];
-  // The step's end: the inverse side's checks and next weights, the forward
-  // side's reductions and checks (in a barrier's serial section).
-  auto finish = [&] {
-    inverse.Finish();
-    solver.SetElementLoads(inverse.weights().data());
-    solver.FinishStep();
-    solver.CheckStep();
-    ++steps_;
-  };
-  StepTeam& team = *team_;
-  team.Run([&](int worker) {
-    for (int s = 0; s < steps; ++s) {
-      const double fraction_end = double(s + 1) / steps;
-      if (options_.concurrent) {
-        // Both sides' element chunks in one pass, interleaved so that a
-        // worker's home range holds both sides' elements of the same nodes.
-        team.ForEachChunk(worker, both_sides_homes, [&](int c) {
-          if (c % 2 == 0) {
-            solver.ElementChunk(c / 2);
-          } else {
-            inverse.ElementChunk(c / 2);
-          }
-        });
-        team.Sync();
-        // Both sides' node chunks cover the same nodes: one walk over each
-        // node's incidences gathers both sides' forces (the sums GatherNodalForce forms).
-        team.ForEachChunk(worker, homes.nodes, [&](int c) {
-          const int begin = c * kNodesPerChunk, end = std::min(begin + kNodesPerChunk, model.num_nodes());
-          T forward_forces[3 * kNodesPerChunk], inverse_forces[3 * kNodesPerChunk];
-          for (int a = begin; a < end; ++a) {
-            GatherNodalForces(model, solver.element_forces_.data(), inverse.element_forces_.data(), a,
-                              &forward_forces[3 * (a - begin)], &inverse_forces[3 * (a - begin)]);
-          }
-          solver.NodeChunk(c, fraction_end, forward_forces);
-          inverse.NodeChunk(c, inverse_forces);
-        });
-      } else {
-        team.ForEachChunk(worker, homes.elements, [&](int c) { solver.ElementChunk(c); });
-        team.Sync();
-        team.ForEachChunk(worker, homes.nodes, [&](int c) { solver.NodeChunk(c, fraction_end); });
-        team.Sync();
-        team.ForEachChunk(worker, homes.elements, [&](int c) { inverse.ElementChunk(c); });
-        team.Sync();
-        team.ForEachChunk(worker, homes.nodes, [&](int c) { inverse.NodeChunk(c); });
-      }
-      if (!team.Sync(finish)) return;
+  // Concurrent: two passes a step, both sides' elements (their chunks
+  // interleaved, so that a worker's home range holds both sides' elements of
+  // the same nodes), then both sides' nodes (one walk over each node's
+  // incidences gathers both sides' forces, the sums GatherNodalForce forms).
+  // Sequential: the forward step's two passes, then the inverse side's.
+  const int passes_per_step = options_.concurrent ? 2 : 4;
+  auto pass = [&](int worker, int p) {
+    const int phase = p % passes_per_step;
+    const double fraction_end = double(p / passes_per_step + 1) / steps;
+    if (options_.concurrent && phase == 0) {
+      team_->ForEachChunk(worker, both_sides_homes, [&](int c) {
+        if (c % 2 == 0) {
+          solver.ElementChunk(c / 2);
+        } else {
+          inverse.ElementChunk(c / 2);
+        }
+      });
+    } else if (options_.concurrent) {
+      team_->ForEachChunk(worker, homes.nodes, [&](int c) {
+        const int begin = c * kNodesPerChunk, end = std::min(begin + kNodesPerChunk, model.num_nodes());
+        T forward_forces[3 * kNodesPerChunk], inverse_forces[3 * kNodesPerChunk];
+        for (int a = begin; a < end; ++a) {
+          GatherNodalForces(model, solver.element_forces_.data(), inverse.element_forces_.data(), a,
+                            &forward_forces[3 * (a - begin)], &inverse_forces[3 * (a - begin)]);
+        }
+        solver.NodeChunk(c, fraction_end, forward_forces);
+        inverse.NodeChunk(c, inverse_forces);
+      });
+    } else if (phase == 0) {
+      team_->ForEachChunk(worker, homes.elements, [&](int c) { solver.ElementChunk(c); });
+    } else if (phase == 1) {
+      team_->ForEachChunk(worker, homes.nodes, [&](int c) { solver.NodeChunk(c, fraction_end); });
+    } else if (phase == 2) {
+      team_->ForEachChunk(worker, homes.elements, [&](int c) { inverse.ElementChunk(c); });
+    } else {
+      team_->ForEachChunk(worker, homes.nodes, [&](int c) { inverse.NodeChunk(c); });
     }
-  });
+  };
+  // The step's end: the inverse side's checks and next weights, the forward
+  // side's reductions and checks.
+  auto after = [&](int p) {
+    if (p % passes_per_step == passes_per_step - 1) {
+      inverse.Finish();
+      solver.SetElementLoads(inverse.weights().data());
+      solver.FinishStep();
+      solver.CheckStep();
+      ++steps_;
+    }
+    return true;
+  };
+  team_->Run(passes_per_step * steps, pass, after);
 }
 
 template <typename T>

@@ -1,11 +1,10 @@
 #include "sim/step_team.h"
 
 #include <algorithm>
+#include <thread>
 
 #include <tbb/global_control.h>
 #include <tbb/task_arena.h>
-
-#include "sim/error.h"
 
 namespace dg::sim {
 namespace {
@@ -23,50 +22,8 @@ inline void CpuRelax() {
 #endif
 }
 
-}  // namespace
-
-StepTeam::StepTeam(int threads) : size_(threads), claims_(std::max(threads, 1)) {
-  DG_CHECK(threads >= 1 && threads <= kMaxEvenSplit);
-  threads_.reserve(size_ - 1);
-  for (int worker = 1; worker < size_; ++worker) threads_.emplace_back([this, worker] { WorkerLoop(worker); });
-}
-
-StepTeam::~StepTeam() {
-  stopping_ = true;
-  Publish(run_generation_, run_sleepers_);
-  for (std::thread& thread : threads_) thread.join();
-}
-
-void StepTeam::Run(const std::function<void(int worker)>& body) {
-  failed_ = false;
-  error_ = nullptr;
-  for (Claim& claim : claims_) claim.next.store(0, std::memory_order_relaxed);
-  if (size_ > 1) {
-    body_ = &body;
-    running_.store(size_ - 1, std::memory_order_relaxed);
-    const std::uint32_t done = done_generation_.load(std::memory_order_acquire);
-    Publish(run_generation_, run_sleepers_);
-    body(0);
-    WaitWhileEquals(done_generation_, done, done_sleepers_);
-  } else {
-    body(0);
-  }
-  if (error_) std::rethrow_exception(error_);
-}
-
-void StepTeam::WorkerLoop(int worker) {
-  std::uint32_t seen = 0;
-  for (;;) {
-    WaitWhileEquals(run_generation_, seen, run_sleepers_);
-    seen = run_generation_.load(std::memory_order_acquire);
-    if (stopping_) return;
-    (*body_)(worker);
-    if (running_.fetch_sub(1, std::memory_order_acq_rel) == 1) Publish(done_generation_, done_sleepers_);
-  }
-}
-
-void StepTeam::WaitWhileEquals(const std::atomic<std::uint32_t>& value, std::uint32_t seen,
-                               std::atomic<int>& sleepers) {
+// Spins, then sleeps, until `value` differs from `seen`.
+void WaitWhileEquals(const std::atomic<std::uint32_t>& value, std::uint32_t seen, std::atomic<int>& sleepers) {
   for (int i = 0; i < kSpinPauses; ++i) {
     if (value.load(std::memory_order_acquire) != seen) return;
     CpuRelax();
@@ -79,15 +36,124 @@ void StepTeam::WaitWhileEquals(const std::atomic<std::uint32_t>& value, std::uin
   sleepers.fetch_sub(1, std::memory_order_relaxed);
 }
 
-void StepTeam::Publish(std::atomic<std::uint32_t>& value, std::atomic<int>& sleepers) {
+// Moves `value` on and wakes its sleepers, if any.
+void Publish(std::atomic<std::uint32_t>& value, std::atomic<int>& sleepers) {
   value.fetch_add(1, std::memory_order_seq_cst);
   if (sleepers.load(std::memory_order_seq_cst) > 0) value.notify_all();
+}
+
+}  // namespace
+
+StepTeam::StepTeam(int workers) : size_(workers) {
+  DG_CHECK(workers >= 1 && workers <= kMaxWorkers);
+  state_ = std::make_shared<State>(workers);
+}
+
+StepTeam::~StepTeam() = default;
+
+void StepTeam::Run(int passes, const std::function<void(int worker, int pass)>& pass,
+                   const std::function<bool(int pass)>& after) {
+  if (passes <= 0) return;
+  State& s = *state_;
+  // The last run's helpers left right after its final barrier; one that the
+  // machine has not scheduled since must be gone before the state is reset.
+  while (s.helpers_in_run.load(std::memory_order_acquire) > 0) std::this_thread::yield();
+  s.pass = &pass;
+  s.after = &after;
+  s.passes = passes;
+  s.current_pass = 0;
+  s.finished = false;
+  s.failed = false;
+  s.error = nullptr;
+  s.members = 1;
+  for (State::Claim& claim : s.claims) claim.next.store(0, std::memory_order_relaxed);
+  const std::uint32_t id = ++s.last_run_id == 0 ? ++s.last_run_id : s.last_run_id;
+  s.run_id.store(id, std::memory_order_seq_cst);
+  for (int worker = 1; worker < size_; ++worker) {
+    tbb::this_task_arena::enqueue([state = state_, worker, id] { Help(state, worker, id); });
+  }
+  WorkPasses(s, 0);
+  s.run_id.store(0, std::memory_order_seq_cst);
+  Publish(s.generation, s.sleepers);  // tasks still waiting to join find the run over
+  if (s.error) std::rethrow_exception(s.error);
+}
+
+void StepTeam::Help(const std::shared_ptr<State>& state, int worker, std::uint32_t run_id) {
+  State& s = *state;
+  if (s.run_id.load(std::memory_order_acquire) != run_id) return;
+  // Ask to join (a task of an earlier run never lowers a later one's request).
+  std::uint32_t requested = s.join_request[worker].load(std::memory_order_seq_cst);
+  while (requested < run_id &&
+         !s.join_request[worker].compare_exchange_weak(requested, run_id, std::memory_order_seq_cst)) {
+  }
+  for (;;) {
+    const std::uint32_t generation = s.generation.load(std::memory_order_acquire);
+    if (s.admitted[worker].load(std::memory_order_acquire) == run_id) {
+      // Admitted in a serial section: start once its barrier has released.
+      const std::uint32_t released = s.admitted_generation[worker];
+      while (s.generation.load(std::memory_order_acquire) != released) {
+        WaitWhileEquals(s.generation, released - 1, s.sleepers);
+      }
+      WorkPasses(s, worker);
+      s.helpers_in_run.fetch_sub(1, std::memory_order_release);
+      return;
+    }
+    if (s.run_id.load(std::memory_order_acquire) != run_id) return;
+    WaitWhileEquals(s.generation, generation, s.sleepers);
+  }
+}
+
+void StepTeam::WorkPasses(State& s, int worker) {
+  while (!s.finished) {
+    (*s.pass)(worker, s.current_pass);
+    Arrive(s);
+  }
+}
+
+void StepTeam::Arrive(State& s) {
+  const std::uint32_t generation = s.generation.load(std::memory_order_acquire);
+  if (s.arrived.fetch_add(1, std::memory_order_acq_rel) + 1 == s.members) {
+    s.arrived.store(0, std::memory_order_relaxed);
+    EndPass(s);
+    Publish(s.generation, s.sleepers);
+  } else {
+    WaitWhileEquals(s.generation, generation, s.sleepers);
+  }
+}
+
+void StepTeam::EndPass(State& s) {
+  const int pass = s.current_pass;
+  bool go_on = false;
+  if (!s.failed) {
+    try {
+      go_on = (*s.after)(pass);
+    } catch (...) {
+      s.failed = true;
+      s.error = std::current_exception();
+    }
+  }
+  s.current_pass = pass + 1;
+  s.finished = !go_on || s.current_pass >= s.passes;
+  if (!s.finished) {
+    // Workers whose task has started join from the next pass on.
+    const std::uint32_t id = s.run_id.load(std::memory_order_relaxed);
+    for (size_t worker = 1; worker < s.admitted.size(); ++worker) {
+      if (s.join_request[worker].load(std::memory_order_seq_cst) == id &&
+          s.admitted[worker].load(std::memory_order_relaxed) != id) {
+        s.helpers_in_run.fetch_add(1, std::memory_order_relaxed);
+        s.admitted_generation[worker] = s.generation.load(std::memory_order_relaxed) + 1;
+        s.admitted[worker].store(id, std::memory_order_release);
+        ++s.members;
+      }
+    }
+  }
+  for (State::Claim& claim : s.claims) claim.next.store(0, std::memory_order_relaxed);
 }
 
 int DefaultTeamSize() {
   const int allowed =
       static_cast<int>(tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism));
-  return std::clamp(std::min(allowed, tbb::this_task_arena::max_concurrency()), 1, StepTeam::kMaxEvenSplit);
+  return std::clamp(std::min(allowed, tbb::this_task_arena::max_concurrency()), 1, StepTeam::kMaxWorkers);
 }
 
 }  // namespace dg::sim

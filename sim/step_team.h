@@ -4,104 +4,111 @@
 #include <cstdint>
 #include <exception>
 #include <functional>
+#include <memory>
 #include <span>
-#include <thread>
 #include <vector>
 
 #include "sim/error.h"
 
 namespace dg::sim {
 
-// A fixed team of threads that runs a time-stepping loop together, in the
-// shape explicit FEM and molecular-dynamics codes use (docs/solver.md,
-// "Threading"):
-//  - the workers live as long as the team, parked between runs, so a step
-//    costs no task spawning and no wake-up;
-//  - each pass of a step hands out fixed chunks, every worker starting on its
-//    own home range (the same chunks every step, so their data stays in that
-//    core's cache) and taking the rest of another's range once its own is
-//    done, so a worker the machine delays does not hold up the step;
-//  - a barrier ends each pass, and its serial section (the step's few
-//    reductions and checks) runs on the last worker to arrive before any
-//    leaves.
-// Waiting spins briefly, then sleeps on a futex (std::atomic::wait), so a team
-// on an oversubscribed machine does not burn the core another thread needs.
+// A team of workers that runs a time-stepping loop together, in the shape
+// explicit FEM and molecular-dynamics codes use (docs/solver.md, "Threads"):
+//  - a run is a sequence of passes, each over fixed chunks, each ended by a
+//    barrier whose serial section (the step's few reductions and checks)
+//    runs on the last worker to arrive before any leaves;
+//  - in every pass worker w starts on its home range of chunks (the same
+//    chunks every step, so their data stay in that core's cache) and then
+//    takes what is left of the others' ranges;
+//  - the caller is worker 0; workers 1.. are tasks of the caller's TBB arena
+//    that join at the next barrier once a thread of the arena is free, and
+//    then stay for the rest of the run. A run never waits for a worker that
+//    has not joined: on a machine whose cores are busy with other work (the
+//    run's graph, other solvers) the caller steps alone, stealing every
+//    range, rather than stalling at a barrier behind a thread that is not
+//    running.
+// Waiting spins briefly, then sleeps on a futex (std::atomic::wait).
 // Which worker runs a chunk never changes what the chunk computes: results do
-// not depend on the team's size.
+// not depend on how many workers joined.
 //
-// Run() is called from one thread at a time.
+// Run() is called from one thread at a time. The team may be destroyed while
+// tasks it enqueued are still queued: they find the run over and return.
 class StepTeam {
  public:
-  // threads >= 1: the caller of Run() is worker 0; threads - 1 more start here.
-  explicit StepTeam(int threads);
+  // The largest team ForEachChunk(worker, count, body) splits on the stack.
+  static constexpr int kMaxWorkers = 64;
+
+  // workers in [1, kMaxWorkers]: the most that may work on a run.
+  explicit StepTeam(int workers);
   ~StepTeam();
   StepTeam(const StepTeam&) = delete;
   StepTeam& operator=(const StepTeam&) = delete;
 
   int size() const { return size_; }
-  // The largest team ForEachChunk(worker, count, body) splits on the stack.
-  static constexpr int kMaxEvenSplit = 64;
 
-  // Runs body(worker) on every worker at once; returns when all have returned.
-  // Every worker must make the same sequence of Sync() calls. Rethrows the
-  // first exception a serial section threw.
-  void Run(const std::function<void(int worker)>& body);
+  // Runs passes 0, 1, ..., passes - 1: pass(worker, p) on every worker in the
+  // team at that pass, then after(p) once, serially, when all have finished
+  // it. Stops early when after() returns false. Rethrows what after() threw.
+  // pass() must not throw.
+  void Run(int passes, const std::function<void(int worker, int pass)>& pass,
+           const std::function<bool(int pass)>& after);
 
-  // Inside Run(): body(chunk) for every chunk in [homes[0], homes[size()]),
+  // Inside a pass: body(chunk) for every chunk in [homes[0], homes[size()]),
   // each exactly once over the team, worker w starting on its home range
-  // [homes[w], homes[w + 1]) (non-decreasing). The pass must end with Sync()
-  // before the next one.
+  // [homes[w], homes[w + 1]) (non-decreasing).
   template <typename Body>
   void ForEachChunk(int worker, std::span<const int> homes, Body&& body);
   // The same with [0, count) split evenly.
   template <typename Body>
   void ForEachChunk(int worker, int count, Body&& body);
 
-  // Inside Run(): waits until every worker has arrived; serial() runs on
-  // exactly one of them before any leaves, and its writes are visible to all
-  // after. Returns false once a serial section has thrown: every worker then
-  // sees false at the same Sync() and must return from its body.
-  template <typename Serial>
-  bool Sync(Serial&& serial);
-  bool Sync() {
-    return Sync([] {});
-  }
-
  private:
-  struct alignas(64) Claim {
-    std::atomic<int> next{0};
+  // Everything a run shares, owned jointly by the team and the tasks it
+  // enqueued (a task may start after its run, or its team, has ended).
+  struct State {
+    struct alignas(64) Claim {
+      std::atomic<int> next{0};
+    };
+    explicit State(int workers)
+        : claims(workers), join_request(workers), admitted(workers), admitted_generation(workers) {}
+
+    std::vector<Claim> claims;  // per home range: the next of its chunks to hand out
+
+    // The run in progress: its id (0: none), its functions and its pass.
+    std::atomic<std::uint32_t> run_id{0};
+    std::uint32_t last_run_id = 0;  // touched by Run()'s thread only
+    const std::function<void(int, int)>* pass = nullptr;
+    const std::function<bool(int)>* after = nullptr;
+    int passes = 0;
+    int current_pass = 0;  // written in serial sections
+    bool finished = false;  // written in serial sections
+    bool failed = false;
+    std::exception_ptr error;
+
+    // Joining: a worker's task asks with its run's id; a serial section admits
+    // it, naming the barrier generation from which it works.
+    std::vector<std::atomic<std::uint32_t>> join_request, admitted;
+    std::vector<std::uint32_t> admitted_generation;
+    int members = 1;  // workers in the run, written in serial sections
+    std::atomic<int> helpers_in_run{0};  // admitted workers other than 0 not yet gone
+
+    // The barrier: arrivals counted, released by moving `generation` on.
+    alignas(64) std::atomic<int> arrived{0};
+    alignas(64) std::atomic<std::uint32_t> generation{0};
+    std::atomic<int> sleepers{0};
   };
 
-  void WorkerLoop(int worker);
-  // Spins, then sleeps, until `value` differs from `seen`.
-  static void WaitWhileEquals(const std::atomic<std::uint32_t>& value, std::uint32_t seen,
-                              std::atomic<int>& sleepers);
-  static void Publish(std::atomic<std::uint32_t>& value, std::atomic<int>& sleepers);
-  // A serial section: serial() unless one already threw, then the claims reset for the next pass.
-  template <typename Serial>
-  void RunSerial(Serial& serial);
+  // Worker `worker`'s passes from the current one to the run's end.
+  static void WorkPasses(State& state, int worker);
+  // The serial section after a pass: after(), the next pass, admissions.
+  static void EndPass(State& state);
+  // Worker `worker`'s task for run `run_id`: joins if the run is still on.
+  static void Help(const std::shared_ptr<State>& state, int worker, std::uint32_t run_id);
+  // The barrier at the end of a pass; the last to arrive runs the serial section.
+  static void Arrive(State& state);
 
   int size_ = 1;
-  std::vector<Claim> claims_;  // per worker: the next chunk of its home range to hand out
-  std::vector<std::thread> threads_;
-
-  // Start of a run: workers wait for run_generation_ to move on.
-  alignas(64) std::atomic<std::uint32_t> run_generation_{0};
-  std::atomic<int> run_sleepers_{0};
-  const std::function<void(int)>* body_ = nullptr;
-  bool stopping_ = false;
-
-  // The barrier: arrivals counted, released by moving barrier_generation_ on.
-  alignas(64) std::atomic<int> arrived_{0};
-  alignas(64) std::atomic<std::uint32_t> barrier_generation_{0};
-  std::atomic<int> barrier_sleepers_{0};
-  bool failed_ = false;               // a serial section threw (written in a serial section)
-  std::exception_ptr error_;
-
-  // End of a run: workers still inside the body.
-  alignas(64) std::atomic<int> running_{0};
-  std::atomic<std::uint32_t> done_generation_{0};
-  std::atomic<int> done_sleepers_{0};
+  std::shared_ptr<State> state_;
 };
 
 // The team size the process's parallelism allows: TBB's active
@@ -111,58 +118,26 @@ int DefaultTeamSize();
 
 template <typename Body>
 void StepTeam::ForEachChunk(int worker, int count, Body&& body) {
-  if (size_ == 1) {
-    for (int chunk = 0; chunk < count; ++chunk) body(chunk);
-    return;
-  }
-  int homes[kMaxEvenSplit + 1];
-  DG_CHECK(size_ <= kMaxEvenSplit);
+  int homes[kMaxWorkers + 1];
+  DG_CHECK(size_ <= kMaxWorkers);
   for (int w = 0; w <= size_; ++w) homes[w] = static_cast<int>(std::int64_t(count) * w / size_);
   ForEachChunk(worker, std::span<const int>(homes, size_ + 1), std::forward<Body>(body));
 }
 
 template <typename Body>
 void StepTeam::ForEachChunk(int worker, std::span<const int> homes, Body&& body) {
+  DG_CHECK(homes.size() == size_t(size_) + 1);
+  std::vector<State::Claim>& claims = state_->claims;
   for (int k = 0; k < size_; ++k) {
     const int owner = (worker + k) % size_;
     const int begin = homes[owner];
     const int end = homes[owner + 1];
     for (;;) {
-      const int chunk = begin + claims_[owner].next.fetch_add(1, std::memory_order_relaxed);
+      const int chunk = begin + claims[owner].next.fetch_add(1, std::memory_order_relaxed);
       if (chunk >= end) break;
       body(chunk);
     }
   }
-}
-
-template <typename Serial>
-bool StepTeam::Sync(Serial&& serial) {
-  if (size_ == 1) {
-    RunSerial(serial);
-    return !failed_;
-  }
-  const std::uint32_t generation = barrier_generation_.load(std::memory_order_acquire);
-  if (arrived_.fetch_add(1, std::memory_order_acq_rel) == size_ - 1) {
-    arrived_.store(0, std::memory_order_relaxed);
-    RunSerial(serial);
-    Publish(barrier_generation_, barrier_sleepers_);
-  } else {
-    WaitWhileEquals(barrier_generation_, generation, barrier_sleepers_);
-  }
-  return !failed_;
-}
-
-template <typename Serial>
-void StepTeam::RunSerial(Serial& serial) {
-  if (!failed_) {
-    try {
-      serial();
-    } catch (...) {
-      failed_ = true;
-      error_ = std::current_exception();
-    }
-  }
-  for (Claim& claim : claims_) claim.next.store(0, std::memory_order_relaxed);
 }
 
 }  // namespace dg::sim

@@ -208,21 +208,26 @@ void TledSolver<T>::SetTargets(std::span<const double> targets_m) {
 template <typename T>
 void TledSolver<T>::Advance(int steps, std::span<const double> targets_m) {
   SetTargets(targets_m);
+  // Two passes a step: elements (even), then nodes (odd), whose serial end
+  // finishes and checks the step.
   const int total = steps * substeps_;
-  team_->Run([&](int worker) {
-    for (int s = 0; s < total; ++s) {
-      team_->ForEachChunk(worker, homes_.elements, [&](int c) { ElementChunk(c); });
-      team_->Sync();
-      const double fraction_end = double(s + 1) / total;
-      team_->ForEachChunk(worker, homes_.nodes, [&](int c) { NodeChunk(c, fraction_end); });
-      if (!team_->Sync([&] {
-            FinishStep();
-            CheckStep();
-          })) {
-        return;
-      }
-    }
-  });
+  team_->Run(
+      2 * total,
+      [&](int worker, int pass) {
+        if (pass % 2 == 0) {
+          team_->ForEachChunk(worker, homes_.elements, [&](int c) { ElementChunk(c); });
+        } else {
+          const double fraction_end = double(pass / 2 + 1) / total;
+          team_->ForEachChunk(worker, homes_.nodes, [&](int c) { NodeChunk(c, fraction_end); });
+        }
+      },
+      [&](int pass) {
+        if (pass % 2 == 1) {
+          FinishStep();
+          CheckStep();
+        }
+        return true;
+      });
 }
 
 template <typename T>

@@ -66,7 +66,8 @@ struct BoundaryConditions {
 // per step an element pass and a node pass over fixed chunks, each ended by
 // the team's barrier, the step's reductions and checks in the second
 // barrier's serial section. Results do not depend on the thread count. One
-// solver must not be advanced from two threads at once. Advance() allocates nothing.
+// solver must not be advanced from two threads at once. Advance() allocates
+// nothing per step.
 template <typename T>
 class TledSolver {
  public:

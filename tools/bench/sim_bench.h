@@ -40,8 +40,8 @@ struct SimBenchRecord {
   double concurrent_gain = 0;
   // The rate over the same configuration's on 1 thread in the same run (0 if not measured).
   double speedup_over_1_thread = 0;
-  // The solver's barrier (sim::StepTeam::Sync) with nothing to wait for, per
-  // call, at this thread count, measured in the same run; a step has two.
+  // The solver's barrier (a sim::StepTeam pass with no work), per pass, at
+  // this thread count, measured in the same run; a step has two.
   double barrier_ns = 0;
 };
 
