@@ -13,7 +13,7 @@
 
 namespace dg::sim {
 
-// What drives the image-constrained simulation (issue 7):
+// What drives the image-constrained simulation:
 //   kSurface  - positional constraints only (no inverse simulation at all);
 //   kVolume   - forces recovered from the preoperative motion only;
 //   kCombined - both (paper section 2.6).

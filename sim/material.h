@@ -4,7 +4,7 @@
 
 namespace dg::sim {
 
-// Compressible neo-Hookean solid in the form TLED codes use (DESIGN.md section 5):
+// Compressible neo-Hookean solid in the form TLED codes use (paper section 2.3):
 //   S = mu J^(-2/3) (I - tr(C)/3 C^-1) + kappa J (J - 1) C^-1,
 // from the strain energy W = mu/2 (J^(-2/3) tr C - 3) + kappa/2 (J - 1)^2.
 // Its small-strain limit is linear elasticity with the given E and nu.

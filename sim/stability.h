@@ -10,7 +10,7 @@
 
 namespace dg::sim {
 
-// The central-difference stability limit of a mesh, two ways (DESIGN.md section 5).
+// The central-difference stability limit of a mesh, two ways.
 //
 // Assembled: dt_cr = 2 / omega_max with omega_max^2 the largest eigenvalue of
 // M^-1 K (lumped M, tangent K at the reference state, constrained degrees of

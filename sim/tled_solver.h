@@ -50,7 +50,7 @@ struct BoundaryConditions {
   std::vector<int> prescribed_dofs;  // driven to targets given to Advance()
 };
 
-// Explicit TLED time integration of one mesh (paper eq. 3 with DESIGN.md section 5):
+// Explicit TLED time integration of one mesh (paper eq. 3):
 //   U+ = 2/(2 + alpha dt) [ dt^2/M (R - F(U)) + 2U + (alpha dt/2 - 1) U- ],
 // computed in the algebraically identical increment form
 //   U+ - U = A dt^2/M (R - F(U)) + (2 - alpha dt)/(2 + alpha dt) (U - U-),  A = 2/(2 + alpha dt),

@@ -13,7 +13,7 @@ struct OverlayBenchOptions {
   double slice_spacing_m = 1e-3;  // of the volume overlay: the phantom CT's voxel size
 };
 
-// One line of the saved table (issue 8): per overlay and thread count, the
+// One line of the saved table: per overlay and thread count, the
 // time per frame of its Process() (for "composite": Compositor::Compose() of
 // texture, volume and meshes with Inverse Realism, saliency included).
 struct OverlayBenchRecord {

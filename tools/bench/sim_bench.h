@@ -21,7 +21,7 @@ struct SimBenchOptions {
   double dt_s = 2e-4;
 };
 
-// One line of the saved table: the interface users script against (issue 2).
+// One line of the saved table: the interface users script against.
 struct SimBenchRecord {
   std::string mesh;  // where the mesh came from: "Gmsh box", "phantom", a file; ", nodes shuffled"
   int mesh_tets = 0;

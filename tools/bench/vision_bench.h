@@ -14,7 +14,7 @@ struct VisionBenchOptions {
   std::vector<std::string> codecs{"raw", "huffyuv"};
 };
 
-// One line of the saved table: the interface users script against (issue 4).
+// One line of the saved table: the interface users script against.
 // Times are per stereo frame, in milliseconds; parts are medians over frames.
 // ms_median and ms_p95 are of the frame's wall time in FrontEnd::Next, the
 // sum of the parts. As in the pipeline, frame j+1 is decoded while frame j is
