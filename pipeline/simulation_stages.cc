@@ -132,6 +132,7 @@ void FemAdapter::Process(FramePacket& packet) {
     options.sampled_nodes = setup_->options.sampled_nodes;
     options.concurrent = setup_->options.concurrent;
     options.double_precision = setup_->options.precision == "double";
+    options.launch_helper = helpers_->launcher();
     fem_ = std::make_unique<stages::FemStage>(options, setup_->mesh, setup_->material, setup_->motion,
                                               setup_->predictor, setup_->fixed_nodes);
     first_frame_ = packet.index;

@@ -8,6 +8,7 @@
 #include "io/registration_file.h"
 #include "io/scene.h"
 #include "pipeline/packet_stage.h"
+#include "pipeline/solver_helpers.h"
 #include "sim/motion_model.h"
 #include "sim/tet_mesh.h"
 #include "stages/fem_stage.h"
@@ -96,7 +97,7 @@ class FemAdapter final : public PacketStage {
  public:
   // overlays: the side branches each frame's geometry is handed to.
   FemAdapter(std::shared_ptr<const SimulationSetup> setup, std::vector<std::shared_ptr<OverlayBranch>> overlays)
-      : setup_(std::move(setup)), overlays_(std::move(overlays)) {}
+      : setup_(std::move(setup)), overlays_(std::move(overlays)), helpers_(std::make_unique<SolverHelpers>()) {}
   const std::string& name() const override { return name_; }
   bool stateful() const override { return true; }
   void Process(FramePacket& packet) override;
@@ -108,6 +109,7 @@ class FemAdapter final : public PacketStage {
   // An output no packet or overlay holds any more, else a new one.
   std::shared_ptr<stages::FemFrameOutput> FreeOutput();
 
+  std::unique_ptr<SolverHelpers> helpers_;  // outlives fem_, whose solver launches on it
   std::unique_ptr<stages::FemStage> fem_;
   std::int64_t first_frame_ = 0;
   // The outputs handed out so far (packets and overlays share them; a frame

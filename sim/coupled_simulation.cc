@@ -70,7 +70,8 @@ CoupledSimulation<T>::CoupledSimulation(std::shared_ptr<const TledModel<T>> mode
     motion_->Evaluate<double>(motion_->PhaseAt(-options_.solver.dt_s, options_.phase_at_start), before);
     for (size_t i = 0; i < u0.size(); ++i) v0[i] = (u0[i] - before[i]) / options_.solver.dt_s;
   }
-  team_ = std::make_shared<StepTeam>(options_.solver.threads > 0 ? options_.solver.threads : DefaultTeamSize());
+  team_ = std::make_shared<StepTeam>(options_.solver.threads > 0 ? options_.solver.threads : DefaultTeamSize(),
+                                     options_.solver.launch_helper);
   BuildSolver(u0, v0);
 
   if (has_inverse()) {

@@ -44,8 +44,10 @@ void Publish(std::atomic<std::uint32_t>& value, std::atomic<int>& sleepers) {
 
 }  // namespace
 
-StepTeam::StepTeam(int workers) : size_(workers) {
+StepTeam::StepTeam(int workers, std::function<void(std::function<void()>)> launch)
+    : size_(workers), launch_(std::move(launch)) {
   DG_CHECK(workers >= 1 && workers <= kMaxWorkers);
+  if (!launch_) launch_ = [](std::function<void()> work) { tbb::this_task_arena::enqueue(std::move(work)); };
   state_ = std::make_shared<State>(workers);
 }
 
@@ -70,7 +72,7 @@ void StepTeam::Run(int passes, const std::function<void(int worker, int pass)>& 
   const std::uint32_t id = ++s.last_run_id == 0 ? ++s.last_run_id : s.last_run_id;
   s.run_id.store(id, std::memory_order_seq_cst);
   for (int worker = 1; worker < size_; ++worker) {
-    tbb::this_task_arena::enqueue([state = state_, worker, id] { Help(state, worker, id); });
+    launch_([state = state_, worker, id] { Help(state, worker, id); });
   }
   WorkPasses(s, 0);
   s.run_id.store(0, std::memory_order_seq_cst);

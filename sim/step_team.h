@@ -38,8 +38,10 @@ class StepTeam {
   // The largest team ForEachChunk(worker, count, body) splits on the stack.
   static constexpr int kMaxWorkers = 64;
 
-  // workers in [1, kMaxWorkers]: the most that may work on a run.
-  explicit StepTeam(int workers);
+  // workers in [1, kMaxWorkers]: the most that may work on a run. `launch`
+  // starts the tasks of workers 1.. (default: enqueued in the caller's TBB
+  // arena); a caller whose arena is always busy can give them priority.
+  explicit StepTeam(int workers, std::function<void(std::function<void()>)> launch = {});
   ~StepTeam();
   StepTeam(const StepTeam&) = delete;
   StepTeam& operator=(const StepTeam&) = delete;
@@ -108,8 +110,13 @@ class StepTeam {
   static void Arrive(State& state);
 
   int size_ = 1;
+  std::function<void(std::function<void()>)> launch_;
   std::shared_ptr<State> state_;
 };
+
+// Starts a team's helper work somewhere it can run: a task for a thread that
+// is or will be free.
+using HelperLauncher = std::function<void(std::function<void()> work)>;
 
 // The team size the process's parallelism allows: TBB's active
 // max_allowed_parallelism (set by tbb::global_control, e.g. --threads), at

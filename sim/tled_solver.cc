@@ -53,7 +53,10 @@ TledSolver<T>::TledSolver(std::shared_ptr<const TledModel<T>> model, BoundaryCon
                           const SolverOptions& options, const StabilityReport* stability,
                           std::shared_ptr<StepTeam> team)
     : model_(std::move(model)), conditions_(std::move(conditions)), options_(options), team_(std::move(team)) {
-  if (!team_) team_ = std::make_shared<StepTeam>(options_.threads > 0 ? options_.threads : DefaultTeamSize());
+  if (!team_) {
+    team_ = std::make_shared<StepTeam>(options_.threads > 0 ? options_.threads : DefaultTeamSize(),
+                                       options_.launch_helper);
+  }
   homes_ = PartitionChunks(*model_, team_->size());
   if (const std::string problem = options_.Validate(); !problem.empty()) {
     throw Error("invalid solver options: " + problem, "solver options", "correct the option");

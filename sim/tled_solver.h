@@ -31,6 +31,8 @@ struct SolverOptions {
   // Threads stepping the solver (its StepTeam's size); 0: DefaultTeamSize(),
   // the process's TBB parallelism. 1 where solvers already run side by side.
   int threads = 0;
+  // Where the team's helper workers run (StepTeam): empty for the caller's TBB arena.
+  HelperLauncher launch_helper;
   // Blow-up: kinetic energy growing more than energy_growth_limit times in each
   // of the last two windows of energy_window_steps steps. Physical motion from
   // rest grows as a power of t (at most (2W+1)^4/(W+1)^4 = 11x for the second

@@ -60,6 +60,7 @@ class FemStage {
     int sampled_nodes = 256;           // nodes logged per frame (SampledNodeIds)
     bool concurrent = true;            // inverse beside forward (false: one after the other)
     bool double_precision = false;     // the simulation in double instead of float
+    sim::HelperLauncher launch_helper; // where the solver's helper workers run (empty: the caller's TBB arena)
     std::string Validate() const;      // empty when valid
   };
 

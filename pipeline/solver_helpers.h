@@ -1,0 +1,35 @@
+#pragma once
+
+#include <memory>
+
+#include "sim/step_team.h"
+
+namespace dg::pipeline {
+
+// Where the FEM stage's solver runs its helper workers (sim::StepTeam) in a
+// run: tasks of a flow-graph node whose priority is above the stages'. In
+// the graph, the thread that is not stepping always has work queued (the
+// next frames' tracking, an overlay's draw tile by tile), so a plain task
+// enqueued for a helper waited behind all of it and the solver stepped alone;
+// a task of a prioritised node is taken at that thread's next task boundary.
+// The overlays and tracking then wait while the simulation steps on both
+// cores: the simulation is the chain's slowest stage, the overlays draw the
+// newest geometry whenever they get a turn.
+class SolverHelpers {
+ public:
+  // Made on the thread that runs the graph, so its tasks go to the graph's arena.
+  SolverHelpers();
+  // Waits for helper tasks still queued (they find their run over and return).
+  ~SolverHelpers();
+  SolverHelpers(const SolverHelpers&) = delete;
+  SolverHelpers& operator=(const SolverHelpers&) = delete;
+
+  // Starts helper work as a task of the prioritised node. Lives as long as this.
+  sim::HelperLauncher launcher();
+
+ private:
+  struct Node;
+  std::unique_ptr<Node> node_;
+};
+
+}  // namespace dg::pipeline
