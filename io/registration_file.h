@@ -20,8 +20,8 @@ struct ReprojectionStats {
   double mean_mm = 0, max_mm = 0, rms_mm = 0;
 };
 
-// A spatiotemporal registration of the 4D scan to the video (DESIGN.md
-// section 6): what a scene can reuse instead of registering again, and what
+// A spatiotemporal registration of the 4D scan to the video: what a scene
+// can reuse instead of registering again, and what
 // the run log keeps under /registration.
 struct Registration {
   Eigen::Matrix4d T_C_S = Eigen::Matrix4d::Identity();  // scan frame S to the left camera frame C, metres

@@ -19,7 +19,7 @@ struct RunAttributes {
   double fps = 0;       // the recording's
 };
 
-// The HDF5 log of one `dynaguide run` (DESIGN.md section 7): the scene text
+// The HDF5 log of one `dynaguide run`: the scene text
 // verbatim in /scene, the root attributes, and appendable tables:
 //   /timings  frame, stage, thread, start_ns, end_ns (attribute stage_names:
 //             the stage indices' names, comma-separated)

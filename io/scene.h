@@ -8,7 +8,7 @@
 
 namespace dg::io {
 
-// A scene: one YAML file naming everything a run needs (DESIGN.md section 7),
+// A scene: one YAML file naming everything a run needs,
 // as `dynaguide phantom` writes it. Paths in the file are relative to it and
 // are resolved here to absolute ones; every named file must exist. Optional
 // parts are absent in scenes that do not need them (no truth for a real
@@ -60,7 +60,7 @@ struct Scene {
     bool rectified = false;  // the recording is already rectified: the graph has no rectify stage
   } video;
 
-  // How the scan is registered to the video (DESIGN.md section 6). With a
+  // How the scan is registered to the video. With a
   // file (a YAML `dynaguide register --out` wrote) the run has no
   // registration stage; otherwise the run registers over its first `cycles`
   // scan periods, following the fiducials from their pixels in the first left
@@ -73,7 +73,7 @@ struct Scene {
   };
   std::optional<Registration> registration;
 
-  // The image-constrained simulation (DESIGN.md section 5); absent: the run
+  // The image-constrained simulation; absent: the run
   // ends at tracking.
   struct Simulation {
     std::string mode = "combined";  // surface, volume or combined

@@ -32,7 +32,7 @@ struct StageTiming {
 };
 
 // One frame in flight: the value every stage reads its input from and writes
-// its output into (DESIGN.md section 4). A run owns a fixed pool of packets,
+// its output into. A run owns a fixed pool of packets,
 // and a packet is a token of the graph's in-flight limit: the source fills a
 // free one, the sink hands it back. Images are reused from frame to frame, so
 // once every buffer has its size the steady state allocates no image memory.

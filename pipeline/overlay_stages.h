@@ -21,7 +21,7 @@
 
 namespace dg::pipeline {
 
-// The overlays of a run (paper section 2.7, DESIGN.md section 4): each one a
+// The overlays of a run (paper section 2.7): each one a
 // side branch fed by the FEM stage through its own SPSC ring, drawing the
 // newest geometry at its own pace and handing its layer to the compositor;
 // the composite stage lays the newest layers over each video frame. A stereo

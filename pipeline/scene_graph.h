@@ -41,7 +41,7 @@ struct SceneGraph {
   std::vector<std::shared_ptr<OverlayBranch>> overlays;
 };
 
-// The graph a scene needs and nothing more (DESIGN.md section 4): capture,
+// The graph a scene needs and nothing more: capture,
 // rectification unless the recording is rectified already, and tracking;
 // with a simulation, constraint mapping and the FEM step, preceded by
 // registration unless the scene gives a registration file (a scene may also

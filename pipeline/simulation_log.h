@@ -10,7 +10,7 @@
 
 namespace dg::pipeline {
 
-// The run log's record of registration and simulation (DESIGN.md section 7),
+// The run log's record of registration and simulation,
 // a consumer of the run-log sink:
 //   /registration  the registration (io::WriteRegistrationH5), written once,
 //                  from the first frame that carries one; its attribute

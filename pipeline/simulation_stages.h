@@ -20,7 +20,7 @@ namespace dg::pipeline {
 
 class OverlayBranch;
 
-// The stages after tracking (DESIGN.md section 4): registration, constraint
+// The stages after tracking: registration, constraint
 // mapping and the FEM step, as the graph sees them. The simulation starts at
 // the first frame that carries a registration: its cardiac phase is the
 // registered one, and constraints are tied to the mesh in its geometry there.

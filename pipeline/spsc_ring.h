@@ -10,7 +10,7 @@ namespace dg::pipeline {
 // A bounded single-producer/single-consumer ring (Lamport's queue with
 // acquire/release indices): one thread pushes, one other thread pops, neither
 // ever blocks or locks. It carries results from the simulation side to the
-// overlay and sink side (DESIGN.md section 4): a producer whose consumer is
+// overlay and sink side: a producer whose consumer is
 // slow gets `false` from TryPush and decides itself whether to drop (counted
 // here) or to wait, so a slow consumer never holds the producer back.
 //

@@ -48,8 +48,8 @@ class GraphSink {
   virtual void RecordDrop(std::int64_t frame, std::int64_t at_ns) = 0;
 };
 
-// Work beside the graph's chain of frames (DESIGN.md section 4: the
-// overlays): a stage hands it values through the branch's own bounded SPSC
+// Work beside the graph's chain of frames (the overlays): a stage hands it
+// values through the branch's own bounded SPSC
 // ring and calls Wake(). The graph then runs Drain() as a task of its own,
 // never two at once; a wake while Drain() runs is dropped, not queued (Drain()
 // takes whatever the ring holds, so the slow branch skips to the newest value
@@ -84,7 +84,7 @@ struct GraphRunResult {
   std::string error;  // when not complete: which stage failed at which frame, and why
 };
 
-// The TBB flow graph of a run (DESIGN.md section 4):
+// The TBB flow graph of a run:
 //
 //   ticker -> join(free packet, tick) -> source -> stages... -> sink -> free packets
 //

@@ -100,22 +100,25 @@ class TledModel {
   std::vector<double> mass_kg_;
 };
 
-template <typename T>
+// Per-node values (3 per node) from `from` into `to`, node k going to node destination[k].
 template <typename In, typename Out>
-void TledModel<T>::ToLayout(std::span<const In> values, std::span<Out> layout) const {
-  for (size_t a = 0; a < layout_of_node_.size(); ++a) {
-    const size_t l = layout_of_node_[a];
-    for (int i = 0; i < 3; ++i) layout[3 * l + i] = static_cast<Out>(values[3 * a + i]);
+void ScatterNodes(std::span<const In> from, std::span<Out> to, const std::vector<int>& destination) {
+  for (size_t k = 0; k < destination.size(); ++k) {
+    const size_t d = destination[k];
+    for (int i = 0; i < 3; ++i) to[3 * d + i] = static_cast<Out>(from[3 * k + i]);
   }
 }
 
 template <typename T>
 template <typename In, typename Out>
+void TledModel<T>::ToLayout(std::span<const In> values, std::span<Out> layout) const {
+  ScatterNodes(values, layout, layout_of_node_);
+}
+
+template <typename T>
+template <typename In, typename Out>
 void TledModel<T>::ToMeshOrder(std::span<const In> layout, std::span<Out> values) const {
-  for (size_t a = 0; a < layout_of_node_.size(); ++a) {
-    const size_t l = layout_of_node_[a];
-    for (int i = 0; i < 3; ++i) values[3 * a + i] = static_cast<Out>(layout[3 * l + i]);
-  }
+  ScatterNodes(layout, values, node_of_layout_);
 }
 
 extern template class TledModel<float>;

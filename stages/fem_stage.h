@@ -38,7 +38,7 @@ struct FemFrameOutput {
   FemFrameRecord record;
 };
 
-// The FEM step of the graph (DESIGN.md section 4): per video frame j, advances
+// The FEM step of the graph: per video frame j, advances
 // the image-constrained simulation (sim/coupled_simulation.h) to step
 // round(t_j / dt), t_j = j / fps, so the simulation clock never drifts from
 // the video's: one frame period at a time (166 or 167 substeps at 30 fps and

@@ -20,8 +20,8 @@ struct NodeTargets {
   std::vector<int> features;             // features averaged for each node
 };
 
-// Maps tracked surface features to mesh-node targets (paper section 2.5,
-// DESIGN.md section 5). At the first frame each feature, brought into the scan
+// Maps tracked surface features to mesh-node targets (paper section 2.5). At
+// the first frame each feature, brought into the scan
 // frame by the registration (x_S = T_C_S^-1 x_C), is tied to its nearest free
 // surface node in the mesh's geometry at that time; the ties persist for the
 // run, and features first seen later are not used. In every frame a tied node's

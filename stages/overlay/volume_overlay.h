@@ -31,7 +31,7 @@ namespace dg::stages::overlay {
 // A constant-density slab of thickness L thus gets opacity 1 - exp(-sigma L)
 // for any slice spacing, up to the slices' sampling of its ends.
 //
-// Software, like the rest of the rendering (DESIGN.md section 4): cut
+// Software, like the rest of the rendering: cut
 // polygons become screen triangles through the rasterizer's clipper and
 // fixed-point set-up (watertight: neighbouring elements' cuts share edges
 // exactly, so no pixel is composited twice per slice), binned to 64 x 64

@@ -48,7 +48,7 @@ struct RegistrationResult {
   int iterations = 0;  // of the joint refinement that won
 };
 
-// Spatiotemporal registration (paper section 2.2, DESIGN.md section 6):
+// Spatiotemporal registration (paper section 2.2):
 // minimises sum_ij rho(|pL(T s_i(t_j + lambda)) - tL_ij|^2) + rho(|pR(...) - tR_ij|^2)
 // over T_C_S and lambda, rho a Cauchy loss. The shift is searched over one
 // period; at each candidate the pose comes from RANSAC PnP on the left view;

@@ -42,7 +42,7 @@ struct TrackFrame {
   int detected = 0, lost = 0;        // tracks started and ended in this frame
 };
 
-// The tracking stage (DESIGN.md section 4): features of the rectified left
+// The tracking stage: features of the rectified left
 // image followed from frame to frame, matched along the row into the right
 // image and triangulated. Detection is the expensive part, so it runs only
 // when the live count falls below a fraction of the target, and then only

@@ -2,8 +2,8 @@
 // composite) on a two-second tiny phantom, counting every allocation: image
 // memory through a counting cv::MatAllocator, everything else through this
 // executable's own global operator new. Once the first frames have sized
-// every pooled buffer, a frame allocates no frame-sized image (DESIGN.md
-// section 4: buffers come from pools).
+// every pooled buffer, a frame allocates no frame-sized image (buffers come
+// from pools).
 #include <atomic>
 #include <cstdlib>
 #include <filesystem>

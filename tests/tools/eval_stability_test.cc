@@ -1,4 +1,4 @@
-// `dynaguide eval stability` (issue 9) on a coarse phantom mesh: each cell's
+// `dynaguide eval stability` on a coarse phantom mesh: each cell's
 // outcome against an independent truth (the limit bisected with the guard
 // off, a run at half the step, a motion that folds the mesh), the guard's
 // estimates against the bisected limit, and the CSV against the results.

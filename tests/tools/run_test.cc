@@ -98,7 +98,7 @@ TEST_CASE("run: the tiny phantom end to end, and its report", "[tools][integrati
   // The whole system's error (registration from 160x120 video over one
   // cycle, tracking, combined simulation) within the paper's combined-mode
   // maxima (Table 1: internal 1.75 mm, surface 0.68 mm). A loose bound: the
-  // tiny preset is coarse; the protocol (issue 9) measures the default phantom.
+  // tiny preset is coarse; the protocol measures the default phantom.
   for (double internal_max_mm : Doubles(file, "/errors/internal_max_mm")) CHECK(internal_max_mm < 1.75);
   for (double surface_mean_mm : Doubles(file, "/errors/surface_mean_mm")) CHECK(surface_mean_mm < 0.68);
   for (double margin : Doubles(file, "/sim/dt_over_dt_critical")) CHECK(margin < 1);

@@ -53,7 +53,7 @@ ProtocolResult ReadProtocolLogs(const std::string& dir, double cycles);
 // @returns the report's text. @throws dg::Error when a file cannot be written.
 std::string WriteProtocolReport(const ProtocolResult& result, const std::string& out_dir);
 
-// The JSON users script against (issue 9): per mode surface_avg_mm,
+// The JSON users script against: per mode surface_avg_mm,
 // surface_max_mm, surface_rms_mm, internal_avg_mm, internal_max_mm,
 // internal_rms_mm, realtime_factor (the runs' median).
 void WriteProtocolJson(const ProtocolResult& result, const std::string& path);

@@ -1,4 +1,4 @@
-// `dynaguide eval runtime`: error against run time (issue 9).
+// `dynaguide eval runtime`: error against run time.
 #include <CLI/CLI.hpp>
 #include <cstdio>
 #include <memory>

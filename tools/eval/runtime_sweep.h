@@ -9,7 +9,7 @@
 
 namespace dg::tools {
 
-// `dynaguide eval runtime` (issue 9): error against run time. A sweep over
+// `dynaguide eval runtime`: error against run time. A sweep over
 // what trades accuracy for speed on a phantom with ground truth: the mesh's
 // resolution, the time step, the tracker's target feature count and the
 // threads. Each point is an independent `dynaguide run` of the whole graph

@@ -10,7 +10,7 @@
 
 namespace dg::tools {
 
-// One cell of `dynaguide eval stability` (issue 9): the phantom's mesh with a
+// One cell of `dynaguide eval stability`: the phantom's mesh with a
 // material, a time step, a motion of its tracked surface and a time-step
 // guard, simulated once over one cardiac cycle and classified.
 

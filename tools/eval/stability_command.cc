@@ -1,4 +1,4 @@
-// `dynaguide eval stability`: the solver on stiff and extreme cases (issue 9).
+// `dynaguide eval stability`: the solver on stiff and extreme cases.
 #include <cstdio>
 #include <memory>
 

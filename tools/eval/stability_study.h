@@ -7,7 +7,7 @@
 
 namespace dg::tools {
 
-// `dynaguide eval stability` (issue 9): the explicit solver on stiff and
+// `dynaguide eval stability`: the explicit solver on stiff and
 // extreme cases. A grid over Young's modulus x Poisson's ratio x time step x
 // motion x guard, each cell simulated once on the phantom's mesh and ending
 // as exactly one CellOutcome; and, for a few materials, the true stability

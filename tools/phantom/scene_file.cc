@@ -9,7 +9,7 @@ namespace dg::tools::phantom {
 
 namespace {
 
-// Two cycles register well (issue 6) and leave the rest of a 3.5 s video to
+// Two cycles register well and leave the rest of a 3.5 s video to
 // the simulation; a shorter video registers over one.
 int RegistrationCycles(double video_s, double period_s) {
   return video_s >= 4 * period_s ? 2 : 1;

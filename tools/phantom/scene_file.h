@@ -7,7 +7,7 @@
 namespace dg::tools::phantom {
 
 // Writes the scene's entry point, scene.yaml, naming every file of the scene
-// by a path relative to it (DESIGN.md section 7).
+// by a path relative to it.
 void WriteSceneFile(const std::string& path, const PhantomSpec& spec, int frames, double period_s);
 
 }  // namespace dg::tools::phantom

@@ -43,7 +43,7 @@ RegisterRunSummary RunRegister(const RegisterRunOptions& options);
 // The result for a terminal: pose, shift, residuals, uncertainty and any truth error.
 std::string RegisterReport(const RegisterRunSummary& summary);
 
-// The JSON users script against (issue 6): T_C_S (4x4 row-major, metres),
+// The JSON users script against: T_C_S (4x4 row-major, metres),
 // phase_shift_s, residual_px_left/right, residual_mm_left/right (means),
 // cycles, and the rest of the statistics. @throws dg::Error if it cannot be written.
 void WriteRegisterJson(const std::string& path, const RegisterRunSummary& summary);

@@ -2,7 +2,7 @@
 
 namespace dg::tools {
 
-// The built-in example of `dynaguide sim` (issue 2): a 5 cm cube of the paper's
+// The built-in example of `dynaguide sim`: a 5 cm cube of the paper's
 // material on a fixed base, its top face held laterally and pressed down 1 cm
 // by a quintic ramp over 0.5 s, then held; 1 s simulated. Printed by
 // `dynaguide sim --print-example` as a template for users' own problems.
