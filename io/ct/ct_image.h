@@ -1,0 +1,54 @@
+#pragma once
+
+#include <cmath>
+#include <cstddef>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "io/metaimage.h"
+
+namespace dg::io {
+
+// One phase of a CT (or a label map on a CT's grid) in the scan frame S: the
+// image's physical frame (DICOM patient coordinates, LPS; a MetaImage's or
+// NIfTI's physical frame as ITK reads it), in metres. Voxel (i, j, k) has its
+// centre at origin_m + direction * (spacing_m .* (i, j, k)) and its value at
+// values[i + size.x * (j + size.y * k)] (x fastest). CT values are in HU, the
+// file's rescale slope and intercept applied; a label map's values are its
+// labels.
+struct CtImage {
+  Eigen::Vector3i size = Eigen::Vector3i::Zero();
+  Eigen::Vector3d spacing_m = Eigen::Vector3d::Constant(1e-3);
+  Eigen::Vector3d origin_m = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d direction = Eigen::Matrix3d::Identity();  // columns: the voxel axes i, j, k in S
+  std::vector<float> values;
+  std::string source;          // the file or folder it was read from, for messages
+  std::string series_uid;      // DICOM's SeriesInstanceUID; empty for other formats
+  double cycle_fraction = std::numeric_limits<double>::quiet_NaN();  // the phase in [0, 1) when the file says it
+
+  std::size_t num_voxels() const { return static_cast<std::size_t>(size.x()) * size.y() * size.z(); }
+  std::size_t Index(int i, int j, int k) const {
+    return static_cast<std::size_t>(i) + size.x() * (static_cast<std::size_t>(j) + static_cast<std::size_t>(size.y()) * k);
+  }
+  float at(int i, int j, int k) const { return values[Index(i, j, k)]; }
+  Eigen::Vector3d PointOf(double i, double j, double k) const {
+    return origin_m + direction * spacing_m.cwiseProduct(Eigen::Vector3d(i, j, k));
+  }
+};
+
+// An axis-aligned volume (such as one read by ReadMetaImage) as a CtImage.
+template <typename T>
+CtImage ToCtImage(const Volume<T>& volume, std::string source) {
+  CtImage image;
+  image.size = volume.size;
+  image.spacing_m = volume.spacing_m;
+  image.origin_m = volume.origin_m;
+  image.values.assign(volume.values.begin(), volume.values.end());
+  image.source = std::move(source);
+  return image;
+}
+
+}  // namespace dg::io
