@@ -152,6 +152,8 @@ Scene::Simulation ReadSimulation(const YamlMap& map) {
   }
   simulation.sampled_nodes = map.Integer("sampled_nodes", simulation.sampled_nodes);
   simulation.max_tie_distance_m = map.Number("max_tie_distance_m", simulation.max_tie_distance_m);
+  simulation.outlier_gate_min_m = map.Number("outlier_gate_min_m", simulation.outlier_gate_min_m);
+  simulation.outlier_gate_scale = map.Number("outlier_gate_scale", simulation.outlier_gate_scale);
   if (!(simulation.dt_s > 0)) throw Error("'dt_s' must be positive", map.Where("dt_s"), "the paper uses 2e-4 s");
   if (!(simulation.damping_per_s >= 0)) {
     throw Error("'damping_per_s' must not be negative", map.Where("damping_per_s"), "the paper uses 75 per second");
@@ -165,6 +167,14 @@ Scene::Simulation ReadSimulation(const YamlMap& map) {
   if (!(simulation.max_tie_distance_m > 0)) {
     throw Error("'max_tie_distance_m' must be positive", map.Where("max_tie_distance_m"),
                 "give about the surface mesh's edge length");
+  }
+  if (!(simulation.outlier_gate_min_m > 0)) {
+    throw Error("'outlier_gate_min_m' must be positive", map.Where("outlier_gate_min_m"),
+                "give about twice the tracked features' error (default 1e-3 m)");
+  }
+  if (!(simulation.outlier_gate_scale >= 1)) {
+    throw Error("'outlier_gate_scale' must be at least 1", map.Where("outlier_gate_scale"),
+                "give a multiple of the frame's median departure (default 3)");
   }
   map.RejectUnknown();
   return simulation;

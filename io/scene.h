@@ -84,6 +84,10 @@ struct Scene {
     std::string precision = "float";  // float (as the paper's GPU solver) or double
     int sampled_nodes = 256;        // nodes logged per frame in /sim
     double max_tie_distance_m = 3e-3;  // features farther from every free surface node are not tied
+    // A feature departing from the scan's prediction by more than the larger of
+    // these (metres; times the frame's median departure) is left out that frame.
+    double outlier_gate_min_m = 1e-3;
+    double outlier_gate_scale = 3;
   };
   std::optional<Simulation> simulation;
 

@@ -24,6 +24,7 @@ SimulationLog::SimulationLog(io::RunLog& log, std::shared_ptr<const SimulationSe
                                  {"kinetic_energy_j", H5Type::kDouble},
                                  {"min_jacobian", H5Type::kDouble},
                                  {"constrained_nodes", H5Type::kInt32},
+                                 {"gated_features", H5Type::kInt32},
                                  {"residual_rms_mm", H5Type::kDouble},
                                  {"residual_max_mm", H5Type::kDouble},
                                  {"dt_over_dt_critical", H5Type::kDouble},
@@ -45,7 +46,8 @@ void SimulationLog::Consume(const FramePacket& packet) {
       sampled_ > 0 ? std::span<const float>(r.sampled_nodes_S_m) : std::span<const float>(&kNoSample, 1);
   sim_->AppendRow({packet.index, packet.t_s, std::int64_t{r.step}, std::int32_t{r.substeps},
                    std::int32_t{r.frames_bridged}, r.kinetic_energy_j,
-                   r.min_jacobian, std::int32_t{r.constrained_nodes}, r.constraint_residual_rms_mm,
+                   r.min_jacobian, std::int32_t{r.constrained_nodes},
+                   std::int32_t{r.gated_features}, r.constraint_residual_rms_mm,
                    r.constraint_residual_max_mm, r.dt_over_dt_critical, sampled});
 }
 

@@ -18,7 +18,9 @@ namespace dg::pipeline {
 //   /sim           one row per simulated frame: frame, t_s, step, substeps,
 //                  frames_bridged (frame periods advanced: 1, or 1 + the
 //                  frames dropped since the last simulated frame),
-//                  kinetic_energy_j, min_jacobian, constrained_nodes, residual_rms_mm, residual_max_mm, dt_over_dt_critical and
+//                  kinetic_energy_j, min_jacobian, constrained_nodes,
+//                  gated_features (tied features left out as outliers),
+//                  residual_rms_mm, residual_max_mm, dt_over_dt_critical and
 //                  sampled_nodes_S_m (3 per sampled node, scan frame, metres);
 //                  /sim/sampled_node_ids names the sampled nodes.
 class SimulationLog {

@@ -101,11 +101,21 @@ void ConstraintAdapter::Process(FramePacket& packet) {
     }
     stages::ConstraintMapper::Options options;
     options.max_tie_distance_m = setup_->options.max_tie_distance_m;
+    options.outlier_gate_min_m = setup_->options.outlier_gate_min_m;
+    options.outlier_gate_scale = setup_->options.outlier_gate_scale;
     mapper_ = std::make_unique<stages::ConstraintMapper>(options, mesh.X_m, first, setup_->surface_nodes,
                                                          setup_->fixed_nodes,
                                                          Eigen::Isometry3d(registration_->T_C_S));
   }
-  mapper_->Process(packet.tracks.points, &packet.targets);  // into the packet's lists, reused
+  // The scan's motion at this frame's phase is what the outlier gate measures the features against.
+  const Eigen::Matrix3Xd* prediction = nullptr;
+  if (setup_->predictor) {
+    predicted_.resize(3, setup_->mesh.num_nodes());
+    setup_->predictor->Evaluate<double>(setup_->PhaseAt(*registration_, packet.t_s),
+                                        std::span<double>(predicted_.data(), predicted_.size()));
+    prediction = &predicted_;
+  }
+  mapper_->Process(packet.tracks.points, prediction, &packet.targets);  // into the packet's lists, reused
 }
 
 std::shared_ptr<stages::FemFrameOutput> FemAdapter::FreeOutput() {

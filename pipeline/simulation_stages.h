@@ -88,6 +88,7 @@ class ConstraintAdapter final : public PacketStage {
   std::shared_ptr<const SimulationSetup> setup_;
   std::shared_ptr<const io::Registration> registration_;
   std::unique_ptr<stages::ConstraintMapper> mapper_;
+  Eigen::Matrix3Xd predicted_;  // the scan's node displacements at this frame (reused)
 };
 
 // simulate: packet.targets -> packet.simulation: the FEM stage advanced to the

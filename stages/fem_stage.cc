@@ -131,6 +131,7 @@ void FemStage::Step(sim::CoupledSimulation<T>& simulation, int from_frame, int f
   record.kinetic_energy_j = simulation.solver().kinetic_energy_j();
   record.min_jacobian = simulation.solver().min_jacobian();
   record.constrained_nodes = static_cast<int>(targets.nodes.size());
+  record.gated_features = targets.gated_features;
   double sum_sq = 0;
   for (size_t k = 0; k < targets.nodes.size(); ++k) {
     double d_sq = 0;

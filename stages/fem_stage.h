@@ -26,6 +26,7 @@ struct FemFrameRecord {
   double kinetic_energy_j = 0;
   double min_jacobian = 0;                 // smallest element J at the last step
   int constrained_nodes = 0;
+  int gated_features = 0;                  // tied features left out as outliers (ConstraintMapper)
   // |node displacement - target| over this frame's constrained nodes at the
   // frame's time: zero where the simulation holds them (surface, combined),
   // the forces-only model's miss of the tracked surface in volume mode.

@@ -18,6 +18,7 @@ struct NodeTargets {
   std::vector<int> nodes;                // constrained this frame, increasing
   std::vector<double> displacement_S_m;  // 3 per node: target displacement from the reference mesh
   std::vector<int> features;             // features averaged for each node
+  int gated_features = 0;                // seen and tied, but left out this frame as outliers
 };
 
 // Maps tracked surface features to mesh-node targets (paper section 2.5). At
@@ -29,6 +30,18 @@ struct NodeTargets {
 // its features seen in this frame since the first; a node none of whose
 // features is seen in a frame is not constrained in it. Fixed (mount) nodes are
 // never candidates: the FEM stage holds them at zero.
+//
+// Outliers: a tracked feature can follow something that is not a material
+// point (a silhouette, a shading pattern) or be matched at a wrong disparity,
+// and drift millimetres off the tissue for part of each beat; tied to one node
+// with free neighbours, it crushes the elements around it. Given the scan's
+// prediction of every node's displacement this frame, a feature whose target
+// departs from its node's prediction by more than the gate is left out of this
+// frame (it is used again when it agrees). The gate is robust and adapts to how
+// well the prediction holds this frame: the larger of outlier_gate_min_m and
+// outlier_gate_scale times the median departure over all seen tied features,
+// so a prediction that is off everywhere (a drifting cardiac phase) widens it
+// instead of untying the whole surface (docs/constraints.md).
 // Stateful: frames in order, one at a time (a serial node).
 class ConstraintMapper {
  public:
@@ -36,6 +49,9 @@ class ConstraintMapper {
     // A feature farther than this from every free surface node (on the mount,
     // on an instrument, or mis-triangulated) is not tied.
     double max_tie_distance_m = 3e-3;
+    // Outlier gate (see above); unused without a prediction.
+    double outlier_gate_min_m = 1e-3;
+    double outlier_gate_scale = 3;
     std::string Validate() const;  // empty when valid
   };
 
@@ -49,9 +65,13 @@ class ConstraintMapper {
                    const std::vector<int>& fixed_nodes, const Eigen::Isometry3d& T_C_S);
 
   // The first call ties the features; every call returns this frame's targets.
-  NodeTargets Process(const std::vector<TrackedPoint>& points);
+  // predicted_displacement_S_m: every node's displacement this frame as the
+  // scan's motion predicts it (3 x N), or null to take every tied feature.
+  NodeTargets Process(const std::vector<TrackedPoint>& points,
+                      const Eigen::Matrix3Xd* predicted_displacement_S_m = nullptr);
   // The same into `targets`, reusing its lists.
-  void Process(const std::vector<TrackedPoint>& points, NodeTargets* targets);
+  void Process(const std::vector<TrackedPoint>& points, const Eigen::Matrix3Xd* predicted_displacement_S_m,
+               NodeTargets* targets);
 
   int tied_features() const { return static_cast<int>(ties_.size()); }
   int untied_features() const { return untied_; }  // too far from the surface at the first frame
@@ -62,6 +82,13 @@ class ConstraintMapper {
     int node;
     Eigen::Vector3d first_S_m;  // the feature's position at the first frame
   };
+  struct Seen {
+    int node;
+    Eigen::Vector3d target_S_m;  // the node's displacement as this feature says it
+  };
+
+  void TieFeatures(const std::vector<TrackedPoint>& points);
+  double Gate(const Eigen::Matrix3Xd& predicted_displacement_S_m);
 
   Options options_;
   Eigen::Isometry3d T_S_C_;
@@ -73,6 +100,8 @@ class ConstraintMapper {
   // Per node, this frame's sum of feature displacements and count (reset each frame).
   std::vector<Eigen::Vector3d> sum_;
   std::vector<int> count_;
+  std::vector<Seen> seen_;             // this frame's tied features (reused)
+  std::vector<double> departures_m_;   // scratch for the gate's median
 };
 
 }  // namespace dg::stages

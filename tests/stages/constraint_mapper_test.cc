@@ -2,6 +2,7 @@
 // force, targets as first-frame displacement plus the mean feature displacement.
 #include "stages/constraints/constraint_mapper.h"
 
+#include <algorithm>
 #include <random>
 
 #include <Eigen/Geometry>
@@ -109,6 +110,50 @@ TEST_CASE("constraint mapper: persistent ties, mean displacement, lost features 
   for (int i = 0; i < 3; ++i) REQUIRE(back.displacement_S_m[i] == Approx(s.first_u_S(i, 3) + d1[i]).margin(1e-15));
 }
 
+// The outlier gate against the scan's prediction: a feature that drifts 3 mm
+// off the tissue is left out while the others (0.2 mm of tracking noise) are
+// kept; when the prediction itself is off everywhere by 1.5 mm the gate widens
+// with the median and leaves no feature out but a 6 mm outlier.
+TEST_CASE("constraint mapper: features departing from the prediction are gated", "[unit]") {
+  const int n = 21;
+  Scene s;
+  s.X_S = Eigen::Matrix3Xd::Zero(3, n);
+  for (int a = 0; a < n; ++a) s.X_S(0, a) = 0.01 * a;
+  s.first_u_S = Eigen::Matrix3Xd::Zero(3, n);
+  for (int a = 1; a < n; ++a) s.surface.push_back(a);
+  s.fixed = {0};
+  s.T_C_S = Eigen::Isometry3d(Eigen::Translation3d(0, 0, 0.08));
+  ConstraintMapper mapper({}, s.X_S, s.first_u_S, s.surface, s.fixed, s.T_C_S);
+  std::vector<TrackedPoint> first;
+  for (int a = 1; a < n; ++a) first.push_back(Feature(a, s, s.X_S.col(a)));
+  mapper.Process(first);
+
+  // The tissue moves by `motion`; each feature sees it with up to 0.2 mm of noise, feature 7 with 3 mm more.
+  const Eigen::Vector3d motion(1e-3, 2e-3, -0.5e-3);
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> noise(-0.2e-3, 0.2e-3);
+  auto frame = [&](double outlier_m) {
+    std::vector<TrackedPoint> seen;
+    for (int a = 1; a < n; ++a) {
+      Eigen::Vector3d x = s.X_S.col(a) + motion + Eigen::Vector3d(noise(rng), noise(rng), noise(rng));
+      if (a == 7) x.z() += outlier_m;
+      seen.push_back(Feature(a, s, x));
+    }
+    return seen;
+  };
+  Eigen::Matrix3Xd predicted = motion.replicate(1, n);
+  const NodeTargets gated = mapper.Process(frame(3e-3), &predicted);
+  REQUIRE(gated.gated_features == 1);
+  REQUIRE(gated.nodes.size() == n - 2);
+  REQUIRE(std::find(gated.nodes.begin(), gated.nodes.end(), 7) == gated.nodes.end());
+  REQUIRE(mapper.Process(frame(0), &predicted).gated_features == 0);  // back in when it agrees
+  REQUIRE(mapper.Process(frame(3e-3)).gated_features == 0);           // no prediction, no gate
+
+  predicted.row(0).array() -= 1.5e-3;  // a prediction off everywhere: the gate widens to 3 x 1.5 mm
+  REQUIRE(mapper.Process(frame(3e-3), &predicted).gated_features == 0);
+  REQUIRE(mapper.Process(frame(6e-3), &predicted).gated_features == 1);
+}
+
 TEST_CASE("constraint mapper: bad set-up is an error with a reason", "[unit]") {
   const Scene s = MakeScene();
   REQUIRE_THROWS_WITH(ConstraintMapper({3e-3}, s.X_S, Eigen::Matrix3Xd::Zero(3, 2), s.surface, s.fixed, s.T_C_S),
@@ -116,6 +161,11 @@ TEST_CASE("constraint mapper: bad set-up is an error with a reason", "[unit]") {
   REQUIRE_THROWS_WITH(ConstraintMapper({3e-3}, s.X_S, s.first_u_S, {0, 1}, s.fixed, s.T_C_S), Contains("no free surface node"));
   REQUIRE_THROWS_WITH(ConstraintMapper({3e-3}, s.X_S, s.first_u_S, {9}, s.fixed, s.T_C_S), Contains("out of range"));
   REQUIRE_THROWS_WITH(ConstraintMapper({-1}, s.X_S, s.first_u_S, s.surface, s.fixed, s.T_C_S), Contains("max_tie_distance_m"));
+  REQUIRE_THROWS_WITH(ConstraintMapper({3e-3, 1e-3, 0.5}, s.X_S, s.first_u_S, s.surface, s.fixed, s.T_C_S),
+                      Contains("outlier_gate_scale"));
+  ConstraintMapper mapper({3e-3}, s.X_S, s.first_u_S, s.surface, s.fixed, s.T_C_S);
+  const Eigen::Matrix3Xd too_few = Eigen::Matrix3Xd::Zero(3, 2);
+  REQUIRE_THROWS_WITH(mapper.Process({}, &too_few), Contains("prediction has 2 nodes"));
 }
 
 }  // namespace
