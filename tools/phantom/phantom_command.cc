@@ -21,7 +21,7 @@ struct PhantomArguments {
   double heart_rate_bpm = 0, duration_s = 0, fps = 0;
   int phases = 0, tets = 0, threads = 0, fiducials = 0;
   double baseline_m = 0, distance_m = 0, noise = -1, voxel_m = 0;
-  std::string size, codec;
+  std::string size, codec, ct_format;
   bool quiet = false;
 };
 
@@ -39,6 +39,7 @@ void RunPhantomCommand(const PhantomArguments& args) {
   if (args.noise >= 0) spec.sensor_noise = args.noise;
   if (args.voxel_m > 0) spec.voxel_m = args.voxel_m;
   if (!args.codec.empty()) spec.video_codec = args.codec;
+  if (!args.ct_format.empty()) spec.ct_format = args.ct_format;
   if (!args.size.empty()) {
     std::smatch match;
     if (!std::regex_match(args.size, match, std::regex(R"((\d+)x(\d+))"))) {
@@ -76,6 +77,10 @@ void AddPhantomCommand(CLI::App& app) {
   command->add_option("--codec", args->codec,
                       "Video codec, lossless either way: raw (uncompressed AVI, about 0.9 MB a 640x480 frame, "
                       "nothing to decode) or huffyuv (about 0.5 MB a frame, 3.5-4.5 ms to decode an eye) (default: raw)");
+  command->add_option("--ct-format", args->ct_format,
+                      "4D CT files: mhd (ct/phase_NN.mhd), dicom (a series per phase, ct/dicom/phase_NN/) or both "
+                      "(default: both)")
+      ->check(CLI::IsMember({"mhd", "dicom", "both"}));
   command->add_option("--voxel", args->voxel_m, "CT voxel size, metres (preset: 0.001)");
   command->add_option("--threads", args->threads, "Worker threads (default: all cores)")->check(CLI::PositiveNumber);
   command->add_flag("--quiet", args->quiet, "No progress lines");

@@ -20,6 +20,7 @@
 #include "sim/error.h"
 #include "stages/camera_model.h"
 #include "tools/phantom/chessboard.h"
+#include "tools/phantom/ct_export.h"
 #include "tools/phantom/ct_synthesis.h"
 #include "tools/phantom/distorted_view.h"
 #include "tools/phantom/heart_geometry.h"
@@ -258,7 +259,7 @@ PhantomSummary GeneratePhantom(const PhantomSpec& spec, const std::string& out_d
     throw Error("invalid phantom: " + wrong, "dynaguide phantom", "correct the option");
   }
   const auto start = std::chrono::steady_clock::now();
-  for (const char* sub : {"", "/ct", "/video", "/calibration", "/assets"}) fs::create_directories(out_dir + sub);
+  for (const char* sub : {"", "/ct", "/video", "/calibration", "/assets", "/truth"}) fs::create_directories(out_dir + sub);
   PhantomSummary summary;
   summary.out_dir = out_dir;
 
@@ -298,6 +299,7 @@ PhantomSummary GeneratePhantom(const PhantomSpec& spec, const std::string& out_d
     io::H5Writer scan(out_dir + "/scan.h5");
     const io::VolumeI16 grid = MakeCtGrid(spec);
     std::vector<double> displacement, fiducials, phase_values;
+    const MotionState first_state = HeartMotion::NominalState(0.0);
     for (int k = 0; k < spec.phases; ++k) {
       const double phase = double(k) / spec.phases;
       const MotionState state = HeartMotion::NominalState(phase);
@@ -308,10 +310,19 @@ PhantomSummary GeneratePhantom(const PhantomSpec& spec, const std::string& out_d
       }
       const Eigen::Matrix3Xd f = DeformAll(motion, state, assets.fiducials_S);
       for (Eigen::Index i = 0; i < f.cols(); ++i) fiducials.insert(fiducials.end(), f.col(i).data(), f.col(i).data() + 3);
-      char name[32];
-      std::snprintf(name, sizeof name, "/ct/phase_%02d.mhd", k);
-      io::WriteMetaImage(out_dir + name, SynthesizeCtPhase(grid, geometry, motion, state, assets.fiducials_S,
-                                                           spec.ct_noise_hu, spec.seed, k));
+      const io::VolumeI16 ct =
+          SynthesizeCtPhase(grid, geometry, motion, state, assets.fiducials_S, spec.ct_noise_hu, spec.seed, k);
+      char name[64];
+      if (spec.writes_metaimage()) {
+        std::snprintf(name, sizeof name, "/ct/phase_%02d.mhd", k);
+        io::WriteMetaImage(out_dir + name, ct);
+      }
+      if (spec.writes_dicom()) {
+        std::snprintf(name, sizeof name, "/ct/dicom/phase_%02d", k);
+        WriteDicomPhase(ct, spec, k, out_dir + name);
+      }
+      std::snprintf(name, sizeof name, "/truth/dvf_phase_%02d.mha", k);
+      io::WriteDisplacementField(out_dir + name, PhaseDisplacementField(grid, motion, first_state, state));
     }
     const size_t P = spec.phases, N = mesh.num_nodes(), F = assets.fiducials_S.cols();
     scan.Write("/phases/phase", phase_values.data(), {P});

@@ -19,6 +19,7 @@ std::string PhantomSpec::Validate() const {
     return "cycle variations must lie in [0, 0.3)";
   }
   if (phases < 4) return "--phases must be at least 4";
+  if (ct_format != "mhd" && ct_format != "dicom" && ct_format != "both") return "--ct-format must be mhd, dicom or both";
   if (fiducials < 5) return "at least five fiducials are needed (registration uses them)";
   if (width < 64 || height < 48 || width % 2 || height % 2) return "--size must be at least 64x48, even numbers";
   if (!(fps > 0 && fps <= 240)) return "--fps must lie in (0, 240]";

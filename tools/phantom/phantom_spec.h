@@ -34,6 +34,11 @@ struct PhantomSpec {
   double voxel_m = 1.0e-3;
   double ct_noise_hu = 15;
   int fiducials = 6;
+  // Which files hold the CT: "mhd" (ct/phase_NN.mhd), "dicom" (a series per
+  // phase under ct/dicom/phase_NN/) or "both".
+  std::string ct_format = "both";
+  bool writes_metaimage() const { return ct_format != "dicom"; }
+  bool writes_dicom() const { return ct_format != "mhd"; }
 
   // Stereo endoscope and video.
   int width = 640, height = 480;
