@@ -1,0 +1,450 @@
+#include "stages/preop/motion/motion_registration.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <mutex>
+#include <sstream>
+
+// ITK 5.2 brings its own Eigen 3.3 and includes its Eigenvalues module under
+// the same include guards: the project's Eigen 3.4 (our header included its
+// Core) must be complete first, or 3.3's modules compile against 3.4's Core.
+#include <Eigen/Eigenvalues>
+#include <itkBSplineInterpolateImageFunction.h>
+#include <itkBSplineTransform.h>
+#include <itkBSplineTransformInitializer.h>
+#include <itkBSplineTransformParametersAdaptor.h>
+#include <itkDisplacementFieldJacobianDeterminantFilter.h>
+#include <itkImage.h>
+#include <itkImageRegionConstIteratorWithIndex.h>
+#include <itkLBFGSBOptimizer.h>
+#include <itkLinearInterpolateImageFunction.h>
+#include <itkMattesMutualInformationImageToImageMetric.h>
+#include <itkMeanSquaresImageToImageMetric.h>
+#include <itkMinimumMaximumImageCalculator.h>
+#include <itkShrinkImageFilter.h>
+#include <itkSingleValuedCostFunction.h>
+#include <itkSmoothingRecursiveGaussianImageFilter.h>
+#include <itkTransformToDisplacementFieldFilter.h>
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
+#include "sim/error.h"
+
+namespace dg::stages::preop {
+namespace {
+
+// ITK works here in millimetres (the CT's own unit) so that the optimiser's
+// tolerances and the B-spline coefficients are O(1) numbers.
+constexpr double kMmPerM = 1000.0;
+constexpr unsigned kDim = 3;
+constexpr unsigned kSplineOrder = 3;
+
+using Image = itk::Image<float, kDim>;
+using BSpline = itk::BSplineTransform<double, kDim, kSplineOrder>;
+using Optimizer = itk::LBFGSBOptimizer;
+using VectorImage = itk::Image<itk::Vector<float, kDim>, kDim>;
+
+Image::Pointer ToItkImage(const io::CtImage& ct) {
+  Image::RegionType region;
+  Image::SpacingType spacing;
+  Image::PointType origin;
+  Image::DirectionType direction;
+  for (unsigned d = 0; d < kDim; ++d) {
+    region.SetSize(d, ct.size[d]);
+    spacing[d] = ct.spacing_m[d] * kMmPerM;
+    origin[d] = ct.origin_m[d] * kMmPerM;
+    for (unsigned e = 0; e < kDim; ++e) direction(d, e) = ct.direction(d, e);
+  }
+  Image::Pointer image = Image::New();
+  image->SetRegions(region);
+  image->SetSpacing(spacing);
+  image->SetOrigin(origin);
+  image->SetDirection(direction);
+  image->Allocate();
+  std::copy(ct.values.begin(), ct.values.end(), image->GetBufferPointer());
+  return image;
+}
+
+// The mean squared HU difference between the fixed image's voxels and the
+// moving image through the B-spline, with its gradient over the spline's
+// coefficients. ITK's own mean-squares metrics (both generations) form the
+// dense 3 x P Jacobian of the transform at every sample, O(P) per sample; a
+// sample only moves with the 4^3 control points around it, and this visits
+// only those (as ITK's Mattes metric does for mutual information). The moving
+// image is a cubic B-spline interpolant, so value and gradient agree and the
+// line searches see a smooth function.
+class SparseMeanSquares final : public itk::SingleValuedCostFunction {
+ public:
+  using Self = SparseMeanSquares;
+  using Pointer = itk::SmartPointer<Self>;
+  itkNewMacro(Self);
+
+  // @pre transform's grid is set; it must outlive this cost function.
+  void Initialize(const Image::Pointer& fixed, const Image::Pointer& moving, BSpline* transform) {
+    transform_ = transform;
+    interpolator_ = Interpolator::New();
+    interpolator_->SetSplineOrder(3);
+    interpolator_->SetNumberOfWorkUnits(1);
+    interpolator_->SetInputImage(moving);
+    samples_X_.clear();
+    fixed_values_.clear();
+    for (itk::ImageRegionConstIteratorWithIndex<Image> it(fixed, fixed->GetBufferedRegion()); !it.IsAtEnd(); ++it) {
+      Image::PointType X;
+      fixed->TransformIndexToPhysicalPoint(it.GetIndex(), X);
+      samples_X_.push_back(X);
+      fixed_values_.push_back(it.Get());
+    }
+  }
+
+  unsigned int GetNumberOfParameters() const override { return transform_->GetNumberOfParameters(); }
+
+  MeasureType GetValue(const ParametersType& parameters) const override {
+    return Evaluate(parameters, nullptr);
+  }
+  void GetDerivative(const ParametersType& parameters, DerivativeType& derivative) const override {
+    Evaluate(parameters, &derivative);
+  }
+  void GetValueAndDerivative(const ParametersType& parameters, MeasureType& value,
+                             DerivativeType& derivative) const override {
+    value = Evaluate(parameters, &derivative);
+  }
+
+ private:
+  using Interpolator = itk::BSplineInterpolateImageFunction<Image, double, double>;
+
+  double Evaluate(const ParametersType& parameters, DerivativeType* derivative) const {
+    transform_->SetParameters(parameters);  // refers to parameters, which outlive this call
+    const unsigned num_parameters = transform_->GetNumberOfParameters();
+    const unsigned per_axis = transform_->GetNumberOfParametersPerDimension();
+    if (derivative) {
+      derivative->SetSize(num_parameters);
+      derivative->Fill(0.0);
+    }
+    BSpline::WeightsType weights(transform_->GetNumberOfWeights());
+    BSpline::ParameterIndexArrayType indices(transform_->GetNumberOfWeights());
+    double sum = 0;
+    size_t count = 0;
+    for (size_t s = 0; s < samples_X_.size(); ++s) {
+      BSpline::OutputPointType x;
+      bool inside = false;
+      transform_->TransformPoint(samples_X_[s], x, weights, indices, inside);
+      if (!inside || !interpolator_->IsInsideBuffer(x)) continue;  // no overlap there: not compared
+      double value;
+      Interpolator::CovariantVectorType gradient;
+      interpolator_->EvaluateValueAndDerivative(x, value, gradient, 0);
+      const double difference = value - fixed_values_[s];
+      sum += difference * difference;
+      ++count;
+      if (!derivative) continue;
+      for (unsigned w = 0; w < weights.Size(); ++w) {
+        const double scale = 2 * difference * weights[w];
+        for (unsigned d = 0; d < kDim; ++d) (*derivative)[indices[w] + d * per_axis] += scale * gradient[d];
+      }
+    }
+    if (count == 0) itkExceptionMacro("no fixed sample maps inside the moving image");
+    if (derivative) *derivative /= double(count);
+    return sum / double(count);
+  }
+
+  BSpline* transform_ = nullptr;
+  Interpolator::Pointer interpolator_;
+  std::vector<Image::PointType> samples_X_;
+  std::vector<float> fixed_values_;
+};
+
+// The metric between fixed (every voxel a sample) and moving through
+// transform, on one thread.
+itk::SingleValuedCostFunction::Pointer MakeMetric(MotionMetric kind, const Image::Pointer& fixed,
+                                                  const Image::Pointer& moving, const BSpline::Pointer& transform) {
+  if (kind == MotionMetric::kMeanSquares) {
+    const SparseMeanSquares::Pointer metric = SparseMeanSquares::New();
+    metric->Initialize(fixed, moving, transform);
+    return metric.GetPointer();
+  }
+  const auto mattes = itk::MattesMutualInformationImageToImageMetric<Image, Image>::New();
+  mattes->SetNumberOfHistogramBins(50);
+  mattes->SetFixedImage(fixed);
+  mattes->SetMovingImage(moving);
+  mattes->SetFixedImageRegion(fixed->GetBufferedRegion());
+  mattes->SetTransform(transform);
+  mattes->SetInterpolator(itk::LinearInterpolateImageFunction<Image, double>::New());
+  mattes->SetUseAllPixels(true);
+  mattes->SetNumberOfWorkUnits(1);
+  mattes->Initialize();
+  return mattes.GetPointer();
+}
+
+// The number of B-spline intervals per axis so that control points are about
+// spacing_mm apart over the image's extent (at least one interval).
+BSpline::MeshSizeType MeshSize(const Image::Pointer& image, double spacing_mm) {
+  BSpline::MeshSizeType mesh;
+  for (unsigned d = 0; d < kDim; ++d) {
+    const double extent_mm = image->GetSpacing()[d] * double(image->GetLargestPossibleRegion().GetSize(d) - 1);
+    mesh[d] = std::max<unsigned>(1, static_cast<unsigned>(std::lround(extent_mm / spacing_mm)));
+  }
+  return mesh;
+}
+
+// det(I + du/dx) over the fixed image's voxels. ITK's determinant filter
+// differentiates along the voxel axes, so the displacements are first
+// expressed in those axes (D^T u): then its matrix is D^T (du/dx) D, whose
+// determinant with I added is that of I + du/dx.
+std::pair<double, double> JacobianRange(const BSpline::Pointer& transform, const Image::Pointer& fixed) {
+  using FieldFilter = itk::TransformToDisplacementFieldFilter<VectorImage, double>;
+  const FieldFilter::Pointer field_filter = FieldFilter::New();
+  field_filter->SetTransform(transform);
+  field_filter->SetReferenceImage(fixed);
+  field_filter->SetUseReferenceImage(true);
+  field_filter->SetNumberOfWorkUnits(1);
+  field_filter->Update();
+  const VectorImage::Pointer field = field_filter->GetOutput();
+  const Image::DirectionType& D = fixed->GetDirection();
+  VectorImage::PixelType* u = field->GetBufferPointer();
+  for (size_t v = 0; v < field->GetLargestPossibleRegion().GetNumberOfPixels(); ++v) {
+    itk::Vector<float, kDim> in_voxel_axes;
+    for (unsigned a = 0; a < kDim; ++a) {
+      double sum = 0;
+      for (unsigned b = 0; b < kDim; ++b) sum += D(b, a) * u[v][b];
+      in_voxel_axes[a] = static_cast<float>(sum);
+    }
+    u[v] = in_voxel_axes;
+  }
+  using JacobianFilter = itk::DisplacementFieldJacobianDeterminantFilter<VectorImage, double>;
+  const JacobianFilter::Pointer jacobian = JacobianFilter::New();
+  jacobian->SetInput(field);
+  jacobian->SetUseImageSpacing(true);
+  jacobian->SetNumberOfWorkUnits(1);
+  jacobian->Update();
+  using MinMax = itk::MinimumMaximumImageCalculator<JacobianFilter::OutputImageType>;
+  const MinMax::Pointer range = MinMax::New();
+  range->SetImage(jacobian->GetOutput());
+  range->Compute();
+  return {range->GetMinimum(), range->GetMaximum()};
+}
+
+Image::Pointer Smoothed(const Image::Pointer& image, double sigma_voxels) {
+  if (sigma_voxels <= 0) return image;
+  using Filter = itk::SmoothingRecursiveGaussianImageFilter<Image, Image>;
+  const Filter::Pointer filter = Filter::New();
+  filter->SetInput(image);
+  filter->SetSigma(sigma_voxels * image->GetSpacing()[0]);
+  filter->SetNumberOfWorkUnits(1);
+  filter->Update();
+  return filter->GetOutput();
+}
+
+Image::Pointer Shrunk(const Image::Pointer& image, unsigned factor) {
+  if (factor == 1) return image;
+  using Filter = itk::ShrinkImageFilter<Image, Image>;
+  const Filter::Pointer filter = Filter::New();
+  filter->SetInput(image);
+  filter->SetShrinkFactors(factor);
+  filter->SetNumberOfWorkUnits(1);
+  filter->Update();
+  return filter->GetOutput();
+}
+
+// One level: the transform (already on this level's grid) optimised in place
+// against images smoothed by half the shrink factor (so the shrunk fixed grid
+// does not alias) and a fixed image shrunk to fewer samples.
+void RunLevel(const Image::Pointer& fixed, const Image::Pointer& moving, const BSpline::Pointer& transform,
+              unsigned shrink, const MotionRegistrationOptions& options, PhaseRegistrationReport* report) {
+  const double sigma_voxels = shrink > 1 ? 0.5 * shrink : 0.0;
+  const itk::SingleValuedCostFunction::Pointer metric =
+      MakeMetric(options.metric, Shrunk(Smoothed(fixed, sigma_voxels), shrink), Smoothed(moving, sigma_voxels), transform);
+  const Optimizer::Pointer optimizer = Optimizer::New();
+  const unsigned parameters = transform->GetNumberOfParameters();
+  optimizer->SetBoundSelection(Optimizer::BoundSelectionType(parameters, 0L));  // unbounded
+  optimizer->SetLowerBound(Optimizer::BoundValueType(parameters, 0.0));
+  optimizer->SetUpperBound(Optimizer::BoundValueType(parameters, 0.0));
+  optimizer->SetMaximumNumberOfIterations(options.max_iterations);
+  optimizer->SetMaximumNumberOfEvaluations(4 * options.max_iterations);
+  optimizer->SetMaximumNumberOfCorrections(7);
+  optimizer->SetCostFunctionConvergenceFactor(1e7);
+  optimizer->SetProjectedGradientTolerance(1e-6);
+  optimizer->SetCostFunction(metric);
+  optimizer->SetInitialPosition(transform->GetParameters());
+  optimizer->StartOptimization();
+  // By value: SetParameters would keep a reference to the optimiser's array.
+  transform->SetParametersByValue(optimizer->GetCurrentPosition());
+  report->iterations += optimizer->GetCurrentIteration();
+  report->stop_condition = optimizer->GetStopConditionDescription();
+}
+
+BSpline::Pointer RegisterPhase(const Image::Pointer& fixed, const Image::Pointer& moving,
+                               const MotionRegistrationOptions& options, PhaseRegistrationReport* report) {
+  const BSpline::Pointer transform = BSpline::New();
+  for (int level = 0; level < options.levels; ++level) {
+    const unsigned shrink = 1u << (options.levels - 1 - level);
+    const BSpline::MeshSizeType mesh = MeshSize(fixed, options.grid_spacing_mm * shrink);
+    if (level == 0) {
+      using Initializer = itk::BSplineTransformInitializer<BSpline, Image>;
+      const Initializer::Pointer initializer = Initializer::New();
+      initializer->SetTransform(transform);
+      initializer->SetImage(fixed);
+      initializer->SetTransformDomainMeshSize(mesh);
+      initializer->InitializeTransform();
+      transform->SetIdentity();
+    } else {
+      // The coarser spline refined exactly onto the finer grid.
+      using Adaptor = itk::BSplineTransformParametersAdaptor<BSpline>;
+      const Adaptor::Pointer adaptor = Adaptor::New();
+      adaptor->SetTransform(transform);
+      adaptor->SetRequiredTransformDomainOrigin(transform->GetTransformDomainOrigin());
+      adaptor->SetRequiredTransformDomainDirection(transform->GetTransformDomainDirection());
+      adaptor->SetRequiredTransformDomainPhysicalDimensions(transform->GetTransformDomainPhysicalDimensions());
+      adaptor->SetRequiredTransformDomainMeshSize(mesh);
+      adaptor->AdaptTransformParameters();
+    }
+    RunLevel(fixed, moving, transform, shrink, options, report);
+  }
+  return transform;
+}
+
+void CheckPhases(const std::vector<io::CtImage>& phases) {
+  if (phases.size() < 2) {
+    throw Error("motion registration needs at least two phases, got " + std::to_string(phases.size()),
+                phases.empty() ? "the 4D CT" : phases[0].source, "give every phase of the 4D CT");
+  }
+  const io::CtImage& first = phases[0];
+  for (size_t k = 0; k < phases.size(); ++k) {
+    const io::CtImage& phase = phases[k];
+    const std::string where = "phase " + std::to_string(k) + " (" + phase.source + ")";
+    if (phase.size.minCoeff() < 4) {
+      throw Error("the grid is " + std::to_string(phase.size.x()) + "x" + std::to_string(phase.size.y()) + "x" +
+                      std::to_string(phase.size.z()) + " voxels, too small to register",
+                  where, "give a volume of at least 4 voxels along each axis");
+    }
+    if (phase.values.size() != phase.num_voxels()) {
+      throw Error("holds " + std::to_string(phase.values.size()) + " values for " +
+                      std::to_string(phase.num_voxels()) + " voxels",
+                  where, "read the phase with the io/ct readers, which fill the grid");
+    }
+    constexpr double kTolerance_m = 1e-7;
+    const bool same_grid = phase.size == first.size &&
+                           (phase.spacing_m - first.spacing_m).cwiseAbs().maxCoeff() < kTolerance_m &&
+                           (phase.origin_m - first.origin_m).cwiseAbs().maxCoeff() < kTolerance_m &&
+                           (phase.direction - first.direction).cwiseAbs().maxCoeff() < 1e-6;
+    if (!same_grid) {
+      std::ostringstream what;
+      what << "the grid (size " << phase.size.transpose() << ", spacing_m " << phase.spacing_m.transpose()
+           << ", origin_m " << phase.origin_m.transpose() << ") differs from phase 0's (size " << first.size.transpose()
+           << ", spacing_m " << first.spacing_m.transpose() << ", origin_m " << first.origin_m.transpose()
+           << ") or its direction does";
+      throw Error(what.str(), where, "give phases of one 4D CT, all reconstructed on the same grid");
+    }
+  }
+}
+
+}  // namespace
+
+std::string MotionRegistrationOptions::Validate() const {
+  if (!(grid_spacing_mm > 0) || !std::isfinite(grid_spacing_mm)) {
+    return "grid_spacing_mm must be a positive number of millimetres, got " + std::to_string(grid_spacing_mm);
+  }
+  if (levels < 1 || levels > 6) return "levels must be 1 to 6, got " + std::to_string(levels);
+  if (max_iterations < 1) return "max_iterations must be at least 1, got " + std::to_string(max_iterations);
+  if (metric != MotionMetric::kMeanSquares && metric != MotionMetric::kMutualInformation) {
+    return "metric is not a MotionMetric";
+  }
+  if (threads < 0) return "threads must be 0 (TBB's default) or more, got " + std::to_string(threads);
+  return {};
+}
+
+// The spline (in millimetres) and the grid it is defined over.
+struct PhaseDeformation::Spline {
+  BSpline::Pointer transform;
+  io::CtImage grid;  // phase 0's geometry, no values
+};
+
+PhaseDeformation::PhaseDeformation() = default;
+
+PhaseDeformation::PhaseDeformation(std::shared_ptr<const Spline> spline, PhaseRegistrationReport report)
+    : spline_(std::move(spline)), report_(std::move(report)) {}
+
+Eigen::Matrix3Xd PhaseDeformation::Displacements(const Eigen::Matrix3Xd& points_S_m) const {
+  Eigen::Matrix3Xd u = Eigen::Matrix3Xd::Zero(3, points_S_m.cols());
+  if (!spline_) return u;
+  const io::CtImage& grid = spline_->grid;
+  const Eigen::Matrix3d to_index = (grid.direction * grid.spacing_m.asDiagonal()).inverse();
+  for (Eigen::Index i = 0; i < points_S_m.cols(); ++i) {
+    const Eigen::Vector3d index = to_index * (points_S_m.col(i) - grid.origin_m);
+    // The spline is defined over the voxels' centres; half a voxel beyond them
+    // it is still the fitted polynomial, beyond that it is not.
+    if ((index.array() < -0.5).any() || (index.array() > grid.size.cast<double>().array() - 0.5).any()) {
+      std::ostringstream what;
+      what << "point " << i << " at " << points_S_m.col(i).transpose() << " m lies outside the CT's grid";
+      throw Error(what.str(), grid.source, "give points inside the phase-0 image (the mesh segmented from it)");
+    }
+    BSpline::InputPointType X;
+    for (unsigned d = 0; d < kDim; ++d) X[d] = points_S_m(d, i) * kMmPerM;
+    const BSpline::OutputPointType x = spline_->transform->TransformPoint(X);
+    for (unsigned d = 0; d < kDim; ++d) u(d, i) = (x[d] - X[d]) / kMmPerM;
+  }
+  return u;
+}
+
+std::vector<PhaseDeformation> RegisterPhases(const std::vector<io::CtImage>& phases,
+                                             const MotionRegistrationOptions& options,
+                                             const MotionProgress& progress) {
+  if (const std::string problem = options.Validate(); !problem.empty()) {
+    throw Error(problem, "MotionRegistrationOptions", "set the option in range");
+  }
+  CheckPhases(phases);
+  io::CtImage grid = phases[0];
+  grid.values.clear();
+
+  std::vector<PhaseDeformation> deformations(phases.size());
+  std::mutex progress_mutex;
+  auto register_phase = [&](int k) {
+    const auto start = std::chrono::steady_clock::now();
+    PhaseRegistrationReport report;
+    report.phase = k;
+    // Each task its own copies: ITK's pipeline writes into its inputs'
+    // requested regions, so images are not shared between registrations.
+    const Image::Pointer fixed = ToItkImage(phases[0]);
+    const Image::Pointer moving = ToItkImage(phases[k]);
+    auto spline = std::make_shared<PhaseDeformation::Spline>();
+    spline->grid = grid;
+    try {
+      spline->transform = RegisterPhase(fixed, moving, options, &report);
+      const BSpline::ParametersType result = spline->transform->GetParameters();
+      const BSpline::ParametersType identity(result.Size(), 0.0);
+      const auto full = MakeMetric(options.metric, fixed, moving, spline->transform);
+      report.metric_before = full->GetValue(identity);
+      report.metric_after = full->GetValue(result);
+      spline->transform->SetParametersByValue(result);
+      std::tie(report.min_jacobian, report.max_jacobian) = JacobianRange(spline->transform, fixed);
+    } catch (const itk::ExceptionObject& e) {
+      throw Error(std::string("ITK failed to register the phase: ") + e.GetDescription(),
+                  "phase " + std::to_string(k) + " (" + phases[k].source + ")",
+                  "check that the phase shows the same anatomy as phase 0 on the same grid");
+    }
+    report.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    deformations[k] = PhaseDeformation(std::move(spline), report);
+    if (progress) {
+      const std::lock_guard<std::mutex> lock(progress_mutex);
+      progress(report);
+    }
+  };
+  const int concurrency = options.threads > 0 ? options.threads : tbb::this_task_arena::max_concurrency();
+  tbb::task_arena arena(concurrency);
+  arena.execute([&] {
+    tbb::parallel_for(1, static_cast<int>(phases.size()), register_phase);
+  });
+  return deformations;
+}
+
+std::vector<double> NodeDisplacementArray(const std::vector<PhaseDeformation>& deformations,
+                                          const Eigen::Matrix3Xd& nodes_S_m) {
+  std::vector<double> array;
+  array.reserve(deformations.size() * nodes_S_m.size());
+  for (const PhaseDeformation& deformation : deformations) {
+    const Eigen::Matrix3Xd u = deformation.Displacements(nodes_S_m);
+    array.insert(array.end(), u.data(), u.data() + u.size());  // column-major 3xN is row-major [N, 3]
+  }
+  return array;
+}
+
+}  // namespace dg::stages::preop

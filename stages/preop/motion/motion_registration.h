@@ -1,0 +1,95 @@
+#pragma once
+
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "io/ct/ct_image.h"
+
+namespace dg::stages::preop {
+
+// The image similarity the registration optimises.
+enum class MotionMetric {
+  kMeanSquares,        // mean squared HU difference: CT numbers are absolute, so one tissue has one value in every phase
+  kMutualInformation,  // minus Mattes' mutual information: tolerates HU that change between phases (contrast agent)
+};
+
+// How each phase is registered to the first (paper section 2.4): a cubic
+// tensor-product B-spline free-form deformation, fitted coarse to fine.
+//
+// Regularisation is the control-point grid itself: the finest spacing bounds
+// how fast the deformation may vary, and each coarser level doubles it. Inside
+// an organ of uniform HU the images only constrain the motion at boundaries
+// (surface, chambers, beads); a grid much coarser than the voxels carries the
+// displacement smoothly between them (cubic B-splines are C2), with no
+// penalty weight to tune against the metric's HU scale.
+struct MotionRegistrationOptions {
+  double grid_spacing_mm = 16.0;  // control-point spacing at the finest level
+  int levels = 3;                 // level l of L: image shrunk 2^(L-1-l), control points 2^(L-1-l) times as far apart
+  int max_iterations = 30;        // L-BFGS-B iterations per level
+  MotionMetric metric = MotionMetric::kMeanSquares;
+  int threads = 0;                // phases registered at once (each on one core); 0: TBB's default
+
+  std::string Validate() const;  // empty when valid
+};
+
+// Figures of one phase's registration, for a report.
+struct PhaseRegistrationReport {
+  int phase = 0;
+  double metric_before = 0;  // the metric (MotionMetric; HU^2 or nats) at the identity, on the full-resolution images
+  double metric_after = 0;   // and at the result
+  int iterations = 0;        // L-BFGS-B iterations, all levels
+  double min_jacobian = 1;   // det of the deformation's Jacobian over the phase-0 image's voxels
+  double max_jacobian = 1;
+  double wall_s = 0;
+  std::string stop_condition;  // the optimiser's, at the finest level
+};
+
+// The deformation from phase 0 to one phase: maps a point at its phase-0
+// position (scan frame S, metres) to its position in that phase. Immutable and
+// cheap to copy (the B-spline is shared); safe to use from several threads.
+class PhaseDeformation {
+ public:
+  // The identity (phase 0).
+  PhaseDeformation();
+
+  // x_k(X) - X for each column X (phase-0 positions). Zero for the identity.
+  // @throws dg::Error naming the first point outside the phase-0 image's grid,
+  //         where the deformation is not defined.
+  Eigen::Matrix3Xd Displacements(const Eigen::Matrix3Xd& points_S_m) const;
+
+  const PhaseRegistrationReport& report() const { return report_; }
+
+  struct Spline;  // the fitted B-spline (ITK's), defined in the .cc
+  PhaseDeformation(std::shared_ptr<const Spline> spline, PhaseRegistrationReport report);
+
+ private:
+  std::shared_ptr<const Spline> spline_;  // null: the identity
+  PhaseRegistrationReport report_;
+};
+
+// Called once per registered phase, when it is done; calls never overlap
+// (they may come from different threads).
+using MotionProgress = std::function<void(const PhaseRegistrationReport&)>;
+
+// Registers phases[k] (moving) to phases[0] (fixed) for every k >= 1, several
+// phases at once (options.threads), each single-threaded. Result k maps phase-0
+// positions to phase k; result 0 is the identity.
+// @pre options.Validate() is empty.
+// @throws dg::Error on invalid options, fewer than two phases, a phase whose
+//         grid (size, spacing, origin, direction) differs from phase 0, or a
+//         phase whose values do not fill its grid; each names the phase and its source.
+std::vector<PhaseDeformation> RegisterPhases(const std::vector<io::CtImage>& phases,
+                                             const MotionRegistrationOptions& options,
+                                             const MotionProgress& progress = {});
+
+// The array scan.h5 holds as /phases/node_displacement_m: shape [P, N, 3],
+// row-major (phase, node, xyz), metres; phase p's row is
+// deformations[p].Displacements(nodes_S_m).
+std::vector<double> NodeDisplacementArray(const std::vector<PhaseDeformation>& deformations,
+                                          const Eigen::Matrix3Xd& nodes_S_m);
+
+}  // namespace dg::stages::preop

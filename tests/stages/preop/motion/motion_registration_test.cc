@@ -1,0 +1,146 @@
+#include "stages/preop/motion/motion_registration.h"
+
+#include <cmath>
+#include <numbers>
+
+#include <catch2/catch.hpp>
+
+#include "sim/error.h"
+
+namespace dg::stages::preop {
+namespace {
+
+using Catch::Matchers::Contains;
+
+// A smooth displacement field (metres) with a known Jacobian: a sinusoidal
+// swirl of amplitude 1.5 mm over a 48 mm cube centred at the origin.
+Eigen::Vector3d KnownDisplacement(const Eigen::Vector3d& X) {
+  constexpr double kAmplitude_m = 1.5e-3, kLength_m = 0.048;
+  const Eigen::Vector3d phase = X * std::numbers::pi / kLength_m;
+  return kAmplitude_m * Eigen::Vector3d(std::sin(phase.y() + 0.3), std::cos(phase.z()), std::sin(phase.x() - 0.2));
+}
+
+// A textured object: blobs of different HU at several scales, so that every
+// region of the image constrains the motion.
+double TexturedHu(const Eigen::Vector3d& x) {
+  const Eigen::Vector3d mm = x * 1000;
+  return 200 * std::sin(mm.x() / 3.1) * std::sin(mm.y() / 2.7 + 1) * std::sin(mm.z() / 3.4 + 2) +
+         400 * std::exp(-(mm - Eigen::Vector3d(5, -4, 3)).squaredNorm() / 60) -
+         300 * std::exp(-(mm - Eigen::Vector3d(-7, 6, -5)).squaredNorm() / 40);
+}
+
+// A 48 mm cube of 1.5 mm voxels centred at the origin; fixed when warped, so
+// that fixed(X) = moving(X + u(X)) and the registration's answer is u.
+io::CtImage TexturedCube(bool warped) {
+  io::CtImage image;
+  image.size = Eigen::Vector3i::Constant(33);
+  image.spacing_m = Eigen::Vector3d::Constant(1.5e-3);
+  image.origin_m = Eigen::Vector3d::Constant(-0.024);
+  image.source = warped ? "fixed (warped)" : "moving";
+  image.values.resize(image.num_voxels());
+  for (int k = 0; k < image.size.z(); ++k) {
+    for (int j = 0; j < image.size.y(); ++j) {
+      for (int i = 0; i < image.size.x(); ++i) {
+        const Eigen::Vector3d X = image.PointOf(i, j, k);
+        image.values[image.Index(i, j, k)] = static_cast<float>(TexturedHu(warped ? X + KnownDisplacement(X) : X));
+      }
+    }
+  }
+  return image;
+}
+
+MotionRegistrationOptions AnalyticOptions() {
+  MotionRegistrationOptions options;
+  options.grid_spacing_mm = 12;
+  options.levels = 2;
+  options.max_iterations = 60;
+  options.threads = 1;
+  return options;
+}
+
+// A CT warped by a known smooth displacement: the registration recovers it
+// inside the image (away from the border, where samples leave the moving image).
+TEST_CASE("motion registration: recovers a known smooth displacement", "[unit]") {
+  const std::vector<io::CtImage> phases = {TexturedCube(true), TexturedCube(false)};
+  const std::vector<PhaseDeformation> deformations = RegisterPhases(phases, AnalyticOptions());
+  REQUIRE(deformations.size() == 2);
+
+  Eigen::Matrix3Xd points(3, 0);
+  for (double x = -0.015; x <= 0.0151; x += 0.003) {
+    for (double y = -0.015; y <= 0.0151; y += 0.003) {
+      for (double z = -0.015; z <= 0.0151; z += 0.003) {
+        points.conservativeResize(3, points.cols() + 1);
+        points.col(points.cols() - 1) = Eigen::Vector3d(x, y, z);
+      }
+    }
+  }
+  const Eigen::Matrix3Xd u = deformations[1].Displacements(points);
+  double sum_mm = 0, max_mm = 0;
+  for (Eigen::Index i = 0; i < points.cols(); ++i) {
+    const double error_mm = (u.col(i) - KnownDisplacement(points.col(i))).norm() * 1000;
+    sum_mm += error_mm;
+    max_mm = std::max(max_mm, error_mm);
+  }
+  const double mean_mm = sum_mm / points.cols();
+  INFO("mean " << mean_mm << " mm, max " << max_mm << " mm over " << points.cols() << " points");
+  CHECK(mean_mm < 0.06);
+  CHECK(max_mm < 0.2);
+
+  // The swirl's Jacobian determinant lies within 1 +- 0.3 (|du/dx| <= 0.1 per
+  // entry): the fitted spline's over the image must too, and be positive.
+  const PhaseRegistrationReport& report = deformations[1].report();
+  CHECK(report.min_jacobian > 0.7);
+  CHECK(report.max_jacobian < 1.3);
+  CHECK(report.metric_after < 0.05 * report.metric_before);
+  CHECK(report.iterations > 0);
+  CHECK(deformations[0].Displacements(points).isZero());
+}
+
+TEST_CASE("motion registration: bad input gets named errors", "[unit]") {
+  const io::CtImage cube = TexturedCube(false);
+  SECTION("one phase") {
+    REQUIRE_THROWS_WITH(RegisterPhases({cube}, AnalyticOptions()), Contains("at least two phases"));
+  }
+  SECTION("phases on different grids") {
+    io::CtImage shifted = cube;
+    shifted.origin_m.x() += 1e-3;
+    shifted.source = "shifted.mhd";
+    REQUIRE_THROWS_WITH(RegisterPhases({cube, shifted}, AnalyticOptions()),
+                        Contains("phase 1 (shifted.mhd)") && Contains("differs from phase 0"));
+  }
+  SECTION("values that do not fill the grid") {
+    io::CtImage short_phase = cube;
+    short_phase.values.pop_back();
+    REQUIRE_THROWS_WITH(RegisterPhases({cube, short_phase}, AnalyticOptions()), Contains("phase 1"));
+  }
+  SECTION("invalid options") {
+    MotionRegistrationOptions options = AnalyticOptions();
+    options.grid_spacing_mm = 0;
+    CHECK_THAT(options.Validate(), Contains("grid_spacing_mm"));
+    REQUIRE_THROWS_WITH(RegisterPhases({cube, cube}, options), Contains("grid_spacing_mm"));
+    options = AnalyticOptions();
+    options.levels = 0;
+    CHECK_THAT(options.Validate(), Contains("levels"));
+    options = AnalyticOptions();
+    options.max_iterations = 0;
+    CHECK_THAT(options.Validate(), Contains("max_iterations"));
+    options = AnalyticOptions();
+    options.threads = -1;
+    CHECK_THAT(options.Validate(), Contains("threads"));
+    CHECK(AnalyticOptions().Validate().empty());
+  }
+}
+
+TEST_CASE("motion registration: points outside the CT's grid are an error", "[unit]") {
+  MotionRegistrationOptions options = AnalyticOptions();
+  options.max_iterations = 1;
+  const std::vector<PhaseDeformation> deformations =
+      RegisterPhases({TexturedCube(true), TexturedCube(false)}, options);
+  Eigen::Matrix3Xd points(3, 2);
+  points.col(0) = Eigen::Vector3d::Zero();
+  points.col(1) = Eigen::Vector3d(0.1, 0, 0);
+  REQUIRE_THROWS_WITH(deformations[1].Displacements(points), Contains("point 1") && Contains("outside"));
+}
+
+}  // namespace
+}  // namespace dg::stages::preop
