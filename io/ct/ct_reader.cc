@@ -223,7 +223,7 @@ std::string GridText(const CtImage& ct) {
 
 // Every phase on the first phase's grid. Tolerances: what decimal DICOM text
 // and float headers round to, far below any real difference between scans.
-void CheckSameGrid(const CtImage& first, const CtImage& phase, int first_index, int index) {
+void CheckSameGrid(const CtImage& first, const CtImage& phase, int index) {
   const double h = first.spacing_m.minCoeff();
   std::string differs;
   if (phase.size != first.size) {
@@ -236,7 +236,7 @@ void CheckSameGrid(const CtImage& first, const CtImage& phase, int first_index, 
     differs = "origin";
   }
   if (differs.empty()) return;
-  throw Error("the phases differ in " + differs + ": phase " + std::to_string(first_index) + " (" + first.source +
+  throw Error("the phases differ in " + differs + ": phase 0 (" + first.source +
                   ") has " + GridText(first) + "; phase " + std::to_string(index) + " (" + phase.source + ") has " +
                   GridText(phase),
               phase.source, "give the phases of one 4D CT, reconstructed on one grid");
@@ -332,7 +332,7 @@ std::vector<CtImage> ReadCtPhases(const std::vector<std::string>& inputs, const 
     CtImage phase = source.series ? ReadSeries(*source.series, /*require_ct=*/true)
                                   : ReadImageFile(source.path, /*require_ct=*/true);
     phase.cycle_fraction = order.cycle_fraction[p];
-    if (!phases.empty()) CheckSameGrid(phases.front(), phase, 0, p);
+    if (!phases.empty()) CheckSameGrid(phases.front(), phase, p);
     if (options.progress) {
       options.progress(phase, p, count);
     } else {
