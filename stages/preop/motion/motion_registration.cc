@@ -81,8 +81,10 @@ class SparseMeanSquares final : public itk::SingleValuedCostFunction {
   itkNewMacro(Self);
 
   // @pre transform's grid is set; it must outlive this cost function.
-  void Initialize(const Image::Pointer& fixed, const Image::Pointer& moving, BSpline* transform) {
+  void Initialize(const Image::Pointer& fixed, const Image::Pointer& moving, BSpline* transform,
+                  double bending_weight) {
     transform_ = transform;
+    bending_weight_ = bending_weight;
     interpolator_ = Interpolator::New();
     interpolator_->SetSplineOrder(3);
     interpolator_->SetNumberOfWorkUnits(1);
@@ -144,10 +146,54 @@ class SparseMeanSquares final : public itk::SingleValuedCostFunction {
     }
     if (count == 0) itkExceptionMacro("no fixed sample maps inside the moving image");
     if (derivative) *derivative /= double(count);
-    return sum / double(count);
+    return sum / double(count) + Bending(parameters, derivative);
+  }
+
+  // bending_weight times the mean squared second difference of the control
+  // points' displacements along each grid axis (a discrete bending energy):
+  // zero for an affine motion, it gives curvature to the directions the
+  // images leave free (a uniform interior, sliding along a smooth surface),
+  // where quasi-Newton steps would otherwise follow the noise.
+  double Bending(const ParametersType& parameters, DerivativeType* derivative) const {
+    if (bending_weight_ <= 0) return 0;
+    const auto size = transform_->GetCoefficientImages()[0]->GetLargestPossibleRegion().GetSize();
+    const unsigned per_axis = transform_->GetNumberOfParametersPerDimension();
+    const long stride[kDim] = {1, long(size[0]), long(size[0] * size[1])};
+    double sum = 0;
+    size_t terms = 0;
+    std::vector<double> gradient(derivative ? parameters.Size() : 0, 0.0);
+    for (unsigned a = 0; a < kDim; ++a) {
+      for (unsigned k = 0; k < size[2]; ++k) {
+        for (unsigned j = 0; j < size[1]; ++j) {
+          for (unsigned i = 0; i < size[0]; ++i) {
+            const unsigned along = a == 0 ? i : a == 1 ? j : k;
+            if (along == 0 || along + 1 == size[a]) continue;
+            const long centre = long(i) + stride[1] * j + stride[2] * k;
+            for (unsigned d = 0; d < kDim; ++d) {
+              const long c = centre + long(d * per_axis);
+              const double r = parameters[c - stride[a]] - 2 * parameters[c] + parameters[c + stride[a]];
+              sum += r * r;
+              ++terms;
+              if (derivative) {
+                gradient[c - stride[a]] += 2 * r;
+                gradient[c] -= 4 * r;
+                gradient[c + stride[a]] += 2 * r;
+              }
+            }
+          }
+        }
+      }
+    }
+    if (terms == 0) return 0;
+    const double scale = bending_weight_ / double(terms);
+    if (derivative) {
+      for (size_t p = 0; p < gradient.size(); ++p) (*derivative)[p] += scale * gradient[p];
+    }
+    return scale * sum;
   }
 
   BSpline* transform_ = nullptr;
+  double bending_weight_ = 0;
   Interpolator::Pointer interpolator_;
   std::vector<Image::PointType> samples_X_;
   std::vector<float> fixed_values_;
@@ -156,10 +202,11 @@ class SparseMeanSquares final : public itk::SingleValuedCostFunction {
 // The metric between fixed (every voxel a sample) and moving through
 // transform, on one thread.
 itk::SingleValuedCostFunction::Pointer MakeMetric(MotionMetric kind, const Image::Pointer& fixed,
-                                                  const Image::Pointer& moving, const BSpline::Pointer& transform) {
+                                                  const Image::Pointer& moving, const BSpline::Pointer& transform,
+                                                  double bending_weight) {
   if (kind == MotionMetric::kMeanSquares) {
     const SparseMeanSquares::Pointer metric = SparseMeanSquares::New();
-    metric->Initialize(fixed, moving, transform);
+    metric->Initialize(fixed, moving, transform, bending_weight);
     return metric.GetPointer();
   }
   const auto mattes = itk::MattesMutualInformationImageToImageMetric<Image, Image>::New();
@@ -252,7 +299,8 @@ void RunLevel(const Image::Pointer& fixed, const Image::Pointer& moving, const B
               unsigned shrink, const MotionRegistrationOptions& options, PhaseRegistrationReport* report) {
   const double sigma_voxels = shrink > 1 ? 0.5 * shrink : 0.0;
   const itk::SingleValuedCostFunction::Pointer metric =
-      MakeMetric(options.metric, Shrunk(Smoothed(fixed, sigma_voxels), shrink), Smoothed(moving, sigma_voxels), transform);
+      MakeMetric(options.metric, Shrunk(Smoothed(fixed, sigma_voxels), shrink), Smoothed(moving, sigma_voxels), transform,
+                 options.bending_weight);
   const Optimizer::Pointer optimizer = Optimizer::New();
   const unsigned parameters = transform->GetNumberOfParameters();
   optimizer->SetBoundSelection(Optimizer::BoundSelectionType(parameters, 0L));  // unbounded
@@ -348,6 +396,9 @@ std::string MotionRegistrationOptions::Validate() const {
   if (metric != MotionMetric::kMeanSquares && metric != MotionMetric::kMutualInformation) {
     return "metric is not a MotionMetric";
   }
+  if (!(bending_weight >= 0) || !std::isfinite(bending_weight)) {
+    return "bending_weight must be zero or a positive number, got " + std::to_string(bending_weight);
+  }
   if (threads < 0) return "threads must be 0 (TBB's default) or more, got " + std::to_string(threads);
   return {};
 }
@@ -411,7 +462,7 @@ std::vector<PhaseDeformation> RegisterPhases(const std::vector<io::CtImage>& pha
       spline->transform = RegisterPhase(fixed, moving, options, &report);
       const BSpline::ParametersType result = spline->transform->GetParameters();
       const BSpline::ParametersType identity(result.Size(), 0.0);
-      const auto full = MakeMetric(options.metric, fixed, moving, spline->transform);
+      const auto full = MakeMetric(options.metric, fixed, moving, spline->transform, /*bending_weight=*/0);
       report.metric_before = full->GetValue(identity);
       report.metric_after = full->GetValue(result);
       spline->transform->SetParametersByValue(result);

@@ -31,6 +31,7 @@ struct MotionRegistrationOptions {
   int levels = 3;                 // level l of L: image shrunk 2^(L-1-l), control points 2^(L-1-l) times as far apart
   int max_iterations = 30;        // L-BFGS-B iterations per level
   MotionMetric metric = MotionMetric::kMeanSquares;
+  double bending_weight = 0;      // HU^2 per mm^2 of the control points' mean squared second difference (mean squares only)
   int threads = 0;                // phases registered at once (each on one core); 0: TBB's default
 
   std::string Validate() const;  // empty when valid

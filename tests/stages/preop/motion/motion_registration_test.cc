@@ -125,6 +125,9 @@ TEST_CASE("motion registration: bad input gets named errors", "[unit]") {
     options.max_iterations = 0;
     CHECK_THAT(options.Validate(), Contains("max_iterations"));
     options = AnalyticOptions();
+    options.bending_weight = -1;
+    CHECK_THAT(options.Validate(), Contains("bending_weight"));
+    options = AnalyticOptions();
     options.threads = -1;
     CHECK_THAT(options.Validate(), Contains("threads"));
     CHECK(AnalyticOptions().Validate().empty());
