@@ -186,6 +186,27 @@ std::vector<DicomSeries> SeriesIn(const std::string& folder) {
   return series;
 }
 
+// The series of a folder, or, when it holds none, those of its subfolders (a
+// folder per phase, as exports and the phantom lay them out).
+std::vector<DicomSeries> SeriesInOrOneBelow(const std::string& folder) {
+  std::vector<DicomSeries> series = ListDicomSeries(folder);
+  if (!series.empty()) return series;
+  std::vector<fs::path> subfolders;
+  for (const auto& entry : fs::directory_iterator(folder)) {
+    if (entry.is_directory()) subfolders.push_back(entry.path());
+  }
+  std::sort(subfolders.begin(), subfolders.end());
+  for (const fs::path& subfolder : subfolders) {
+    std::vector<DicomSeries> below = ListDicomSeries(subfolder.string());
+    series.insert(series.end(), below.begin(), below.end());
+  }
+  if (series.empty()) {
+    throw Error("no DICOM series in the folder or its subfolders", folder,
+                "give a folder of DICOM files, a folder of such folders, or image files");
+  }
+  return series;
+}
+
 void CheckExists(const std::string& path) {
   if (!fs::exists(path)) throw Error("no such file or folder", path, "check the path");
 }
@@ -298,7 +319,7 @@ std::vector<CtImage> ReadCtPhases(const std::vector<std::string>& inputs, const 
       sources.push_back({found->folder, found, found->tags});
     }
   } else if (inputs.size() == 1 && fs::is_directory(inputs.front())) {
-    folders.push_back(SeriesIn(inputs.front()));
+    folders.push_back(SeriesInOrOneBelow(inputs.front()));
     for (const DicomSeries& series : folders.back()) sources.push_back({series.folder, &series, series.tags});
     given_order = false;
   } else {

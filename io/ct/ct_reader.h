@@ -38,7 +38,8 @@ struct CtReadOptions {
 };
 
 // The phases of a 4D CT, in cycle order, from
-//  (a) one folder holding every phase as a DICOM series of its own, ordered
+//  (a) one folder holding every phase as a DICOM series of its own (in it,
+//      or when it holds none, in its subfolders, one level down), ordered
 //      by the first cardiac-phase tag every series carries (see OrderPhases:
 //      NominalPercentageOfCardiacPhase, a percentage in SeriesDescription,
 //      TemporalPositionIdentifier, then TriggerTime);

@@ -191,7 +191,8 @@ TEST_CASE("ct phases: missing, unreadable, truncated and unsupported files are e
   std::ofstream(dir + "/garbage.nii.gz") << "not gzip at all, and not NIfTI either";
   REQUIRE_THROWS_WITH(ReadCtImage(dir + "/garbage.nii.gz"), Contains("garbage.nii.gz") && Contains("fix:"));
   fs::create_directories(dir + "/empty");
-  REQUIRE_THROWS_WITH(ReadCtPhases({dir + "/empty"}, {}), Contains("no DICOM series") && Contains("empty"));
+  REQUIRE_THROWS_WITH(ReadCtPhases({dir + "/empty"}, {}), Contains("no DICOM series in the folder or its subfolders") &&
+                                                          Contains("empty"));
   // A series with a slice gone: unevenly spaced slices.
   CtImage tall = testing::PatternCt({4, 4, 5}, {1e-3, 1e-3, 2e-3}, Eigen::Vector3d::Zero(), Eigen::Matrix3d::Identity());
   WriteDicomSeries(tall, dir + "/gap", testing::PhaseInfo("gap", 1, 1));

@@ -64,6 +64,10 @@ TEST_CASE("phantom ct: its DICOM series and MetaImages read to the same voxels a
     REQUIRE(dicom[k].values == mhd[k].values);
     REQUIRE_THAT(dicom[k].cycle_fraction, WithinAbs(double(k) / kPhases, 1e-6));
   }
+  // The folder of the phases' folders, ordered by their phase tags.
+  const std::vector<CtImage> by_tags = ReadCtPhases({testing::TinyPhantomDir() + "/ct/dicom"}, {});
+  REQUIRE(by_tags.size() == size_t(kPhases));
+  for (int k = 0; k < kPhases; ++k) REQUIRE(by_tags[k].values == dicom[k].values);
   // The phases differ (the heart moves), so equal voxels are not a degenerate match.
   REQUIRE(dicom[0].values != dicom[kPhases / 2].values);
 }
