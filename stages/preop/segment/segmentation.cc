@@ -188,10 +188,9 @@ std::vector<MaskImage::Pointer> SplitTouching(const MaskImage* mask, double dept
     if (!inside[v]) continue;
     MaskImage::Pointer& part = parts[label[v]];
     if (!part) {
-      part = NewImage<MaskImage>(Eigen::Vector3i(static_cast<int>(mask->GetBufferedRegion().GetSize()[0]),
-                                                 static_cast<int>(mask->GetBufferedRegion().GetSize()[1]),
-                                                 static_cast<int>(mask->GetBufferedRegion().GetSize()[2])));
-      part->FillBuffer(0);
+      part = MaskImage::New();
+      part->SetRegions(mask->GetBufferedRegion());
+      part->Allocate(/*initializePixels=*/true);
     }
     part->GetBufferPointer()[v] = 1;
   }

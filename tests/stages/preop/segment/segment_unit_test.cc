@@ -108,6 +108,30 @@ TEST_CASE("preop segment: a label absent from the map is a named error", "[unit]
   REQUIRE_THROWS_WITH(Segment(ct, labels, options), Contains("label 3 is on no voxel"));
 }
 
+TEST_CASE("preop segment: a label map gives the organ with its internal structures, and the mount", "[unit]") {
+  const io::CtImage ct = BallCt(16, 6);
+  io::CtImage labels = ct;
+  std::size_t organ = 0, inner = 0;
+  const double c = 7.5;
+  for (int k = 0; k < 16; ++k)
+    for (int j = 0; j < 16; ++j)
+      for (int i = 0; i < 16; ++i) {
+        float& label = labels.values[labels.Index(i, j, k)];
+        const double r = Eigen::Vector3d(i - c, j - c, k - c).norm();
+        label = k == 0 ? 2.0f : r <= 2.5 ? 3.0f : r <= 6 ? 1.0f : 0.0f;
+        organ += r <= 6 && k > 0;
+        inner += r <= 2.5 && k > 0;
+      }
+  SegmentationOptions options;
+  options.internal_labels = {3};
+  const Segmentation s = Segment(ct, labels, options);
+  CHECK(s.organ.Count() == organ);  // the internal structure is part of the solid
+  REQUIRE(s.internal.size() == 1);
+  CHECK(s.internal[0].Count() == inner);
+  CHECK(s.mount.Count() == 16u * 16u);
+  CHECK(s.report.organ_voxels_dropped == 0);
+}
+
 TEST_CASE("preop segment: invalid options are refused by name", "[unit]") {
   SegmentationOptions segmentation;
   segmentation.mount_hu = {600, 400};
