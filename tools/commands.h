@@ -15,6 +15,7 @@ void AddEvalCommand(CLI::App& app);
 void AddMeshCommand(CLI::App& app);
 void AddOverlayCommand(CLI::App& app);
 void AddPhantomCommand(CLI::App& app);
+void AddPreopCommand(CLI::App& app);
 void AddReportCommand(CLI::App& app);
 void AddRunCommand(CLI::App& app);
 void AddTrackCommand(CLI::App& app);

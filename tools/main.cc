@@ -17,6 +17,7 @@ int main(int argc, char** argv) {
   dg::tools::AddMeshCommand(app);
   dg::tools::AddOverlayCommand(app);
   dg::tools::AddPhantomCommand(app);
+  dg::tools::AddPreopCommand(app);
   dg::tools::AddRunCommand(app);
   dg::tools::AddReportCommand(app);
   dg::tools::AddTrackCommand(app);

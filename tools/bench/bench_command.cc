@@ -3,6 +3,8 @@
 #include <cstdio>
 
 #include <CLI/CLI.hpp>
+#include <tbb/global_control.h>
+#include <tbb/info.h>
 
 #include "tools/bench/overlay_bench.h"
 #include "tools/bench/pipeline_bench.h"
@@ -11,6 +13,7 @@
 #include "tools/bench/vision_bench.h"
 #include "tools/commands.h"
 #include "tools/machine_info.h"
+#include "tools/preop/preop_bench.h"
 
 namespace dg::tools {
 namespace {
@@ -85,6 +88,28 @@ void AddRegisterBench(CLI::App& bench) {
   });
 }
 
+void AddPreopBench(CLI::App& bench) {
+  auto out_dir = std::make_shared<std::string>("out/bench-preop");
+  auto threads = std::make_shared<int>(0);
+  auto json_path = std::make_shared<std::string>();
+  CLI::App* command = bench.add_subcommand(
+      "preop", "dynaguide preop on the default phantom's DICOM 4D CT, against the phantom's exact motion");
+  command->add_option("--out", *out_dir, "Where the scene goes (kept, with scene.yaml)")->capture_default_str();
+  command->add_option("--threads", *threads, "Worker threads (default: all cores)");
+  command->add_option("--json", *json_path, "Save the record to this JSON file");
+  command->callback([out_dir, threads, json_path] {
+    PrintMachine();
+    const int count = *threads > 0 ? *threads : tbb::info::default_concurrency();
+    tbb::global_control parallelism(tbb::global_control::max_allowed_parallelism, count);
+    const preop::PreopBenchRecord record = preop::RunPreopBench(*out_dir, count, true);
+    std::fputs(preop::PreopBenchTable(record).c_str(), stdout);
+    if (!json_path->empty()) {
+      preop::WritePreopBenchJson(*json_path, record);
+      std::printf("saved %s\n", json_path->c_str());
+    }
+  });
+}
+
 void AddPipelineBench(CLI::App& bench) {
   auto options = std::make_shared<PipelineBenchOptions>();
   auto json_path = std::make_shared<std::string>();
@@ -152,6 +177,7 @@ void AddBenchCommand(CLI::App& app) {
   });
   AddVisionBench(*bench);
   AddRegisterBench(*bench);
+  AddPreopBench(*bench);
   AddOverlayBench(*bench);
   AddPipelineBench(*bench);
 }

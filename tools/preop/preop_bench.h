@@ -1,0 +1,28 @@
+#pragma once
+
+#include <string>
+
+#include "tools/preop/preop_job.h"
+
+namespace dg::tools::preop {
+
+// `dynaguide bench preop`: the preoperative job on the default phantom's 4D CT
+// (its DICOM series), timed, and its motion checked against the phantom's
+// exact displacement fields (truth/dvf_phase_NN.mha) at the mesh's nodes and
+// at the fiducials (the paper's Table 2, first row: the deformed phase-0
+// fiducials against the phantom's true per-phase fiducials).
+struct PreopBenchRecord {
+  PreopSummary summary;
+  int threads = 0;
+  double node_error_mean_mm = 0, node_error_max_mm = 0;   // over every node of every phase
+  double fiducial_deformed_mean_mm = 0;                     // deformed phase-0 fiducials against the truth's
+  double fiducial_found_mean_mm = 0;                        // beads found in the CT against the truth's
+  std::string out_dir;
+};
+
+// out_dir: where the scene goes (kept, with scene.yaml for `eval protocol`).
+PreopBenchRecord RunPreopBench(const std::string& out_dir, int threads, bool progress);
+void WritePreopBenchJson(const std::string& path, const PreopBenchRecord& record);
+std::string PreopBenchTable(const PreopBenchRecord& record);
+
+}  // namespace dg::tools::preop

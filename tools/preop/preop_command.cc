@@ -1,0 +1,83 @@
+// `dynaguide preop`: a 4D CT to a scene's preoperative part.
+#include <cstdio>
+
+#include <CLI/CLI.hpp>
+#include <tbb/global_control.h>
+#include <tbb/info.h>
+
+#include "tools/commands.h"
+#include "tools/preop/preop_job.h"
+
+namespace dg::tools {
+namespace {
+
+struct PreopArguments {
+  preop::PreopOptions options;
+  std::vector<double> organ_hu, internal_hu, mount_hu;
+  int threads = 0;
+  bool quiet = false;
+};
+
+stages::preop::HuRange Range(const std::vector<double>& bounds, stages::preop::HuRange fallback) {
+  return bounds.empty() ? fallback : stages::preop::HuRange{bounds[0], bounds[1]};
+}
+
+void RunPreopCommand(PreopArguments& args) {
+  preop::PreopOptions& options = args.options;
+  options.segmentation.organ_hu = Range(args.organ_hu, options.segmentation.organ_hu);
+  options.segmentation.internal_hu = Range(args.internal_hu, options.segmentation.internal_hu);
+  options.segmentation.mount_hu = Range(args.mount_hu, options.segmentation.mount_hu);
+  options.progress = !args.quiet;
+  const int threads = args.threads > 0 ? args.threads : tbb::info::default_concurrency();
+  tbb::global_control parallelism(tbb::global_control::max_allowed_parallelism, threads);
+  options.motion.threads = threads;
+  const preop::PreopSummary summary = preop::RunPreop(options);
+  std::fputs(summary.Describe().c_str(), stdout);
+  std::printf("written to %s (report: preop.json%s)\n", options.out_dir.c_str(),
+              options.like_scene.empty() ? "" : ", scene: scene.yaml");
+}
+
+}  // namespace
+
+void AddPreopCommand(CLI::App& app) {
+  auto args = std::make_shared<PreopArguments>();
+  preop::PreopOptions& o = args->options;
+  CLI::App* command = app.add_subcommand(
+      "preop", "A 4D CT to a scene's preoperative part: mesh.msh, scan.h5 (the motion), overlay assets");
+  command->add_option("ct", o.ct_inputs,
+                      "The 4D CT: one DICOM folder holding every phase's series, one folder per phase, or one "
+                      "image file per phase (.nii, .nii.gz, .nrrd, .mhd, .mha) in cycle order")
+      ->required();
+  command->add_option("--out", o.out_dir, "Output directory (created)")->required();
+  command->add_option("--series", o.series_uids, "Phases by SeriesInstanceUID, in cycle order");
+  command->add_option("--like", o.like_scene,
+                      "A scene whose video, calibration, truth and run settings the written scene.yaml takes");
+  command->add_option("--period-s", o.period_s, "The CT's cardiac period, seconds (default: the --like scene's)");
+  command->add_option("--labels", o.label_map,
+                      "A label map on phase 0's grid (3D Slicer, ITK-SNAP) instead of automatic segmentation");
+  command->add_option("--organ-label", o.segmentation.organ_label, "The organ's label in --labels")->capture_default_str();
+  command->add_option("--mount-label", o.segmentation.mount_label, "The mount's label in --labels (0: none)")
+      ->capture_default_str();
+  command->add_option("--internal-labels", o.segmentation.internal_labels,
+                      "Internal structures' labels in --labels, each one embedded mesh");
+  command->add_option("--organ-hu", args->organ_hu, "Automatic: the organ's HU range MIN MAX (default -480 375)")
+      ->expected(2);
+  command->add_option("--internal-hu", args->internal_hu,
+                      "Automatic: internal structures' HU range MIN MAX (default 145 375)")
+      ->expected(2);
+  command->add_option("--mount-hu", args->mount_hu, "Automatic: the mount's HU range MIN MAX (default 375 1750)")
+      ->expected(2);
+  command->add_option("--tets", o.mesh.target_tets, "Target tetrahedron count")->capture_default_str();
+  command->add_option("--triangles", o.surface.target_triangles, "Decimated surface's triangle count")
+      ->capture_default_str();
+  command->add_option("--grid-mm", o.motion.grid_spacing_mm, "B-spline control-point spacing at the finest level, mm")
+      ->capture_default_str();
+  command->add_option("--levels", o.motion.levels, "B-spline registration levels, coarse to fine")->capture_default_str();
+  command->add_option("--annotation", o.annotation,
+                      "An image laid on the organ's surface for the texture overlay (projected along z)");
+  command->add_option("--threads", args->threads, "Worker threads (default: all cores)")->check(CLI::PositiveNumber);
+  command->add_flag("--quiet", args->quiet, "No progress lines");
+  command->callback([args] { RunPreopCommand(*args); });
+}
+
+}  // namespace dg::tools

@@ -1,0 +1,287 @@
+#include "tools/preop/preop_job.h"
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <sstream>
+
+#include <opencv2/imgcodecs.hpp>
+
+#include "io/ct/ct_reader.h"
+#include "io/gmsh_mesher.h"
+#include "io/h5_file.h"
+#include "io/metaimage.h"
+#include "io/scene.h"
+#include "io/surface_mesh.h"
+#include "sim/error.h"
+#include "sim/log.h"
+#include "stages/register/bead_detection.h"
+#include "stages/register/fiducial_motion.h"
+#include "tools/preop/like_scene.h"
+#include "tools/preop/preop_report.h"
+#include "tools/preop/surface_uvs.h"
+
+namespace dg::tools::preop {
+namespace fs = std::filesystem;
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+// A bead farther than this from a like scene's fiducial is not that fiducial.
+constexpr double kMaxFiducialMatch_m = 3e-3;
+
+double SecondsSince(Clock::time_point start) {
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+// The volume overlay and bead detection read axis-aligned MetaImages.
+io::VolumeI16 ToAxisAlignedVolume(const io::CtImage& ct) {
+  if (!ct.direction.isIdentity(1e-9)) {
+    throw Error("the CT's voxel axes are not the scan frame's (direction cosines are not the identity)", ct.source,
+                "resample the CT to an axis-aligned grid (e.g. 3D Slicer's Resample Scalar Volume, or ITK's "
+                "ResampleImageFilter) before dynaguide preop");
+  }
+  io::VolumeI16 volume;
+  volume.size = ct.size;
+  volume.spacing_m = ct.spacing_m;
+  volume.origin_m = ct.origin_m;
+  volume.values.resize(ct.values.size());
+  for (size_t v = 0; v < ct.values.size(); ++v) {
+    volume.values[v] = static_cast<std::int16_t>(std::lround(std::clamp(ct.values[v], -32768.f, 32767.f)));
+  }
+  return volume;
+}
+
+// The registration pairs the scan's fiducial i with the video's fiducial i,
+// so beads found in the CT (in the order found) take the order of the like
+// scene's scan: each is matched to the nearest of its phase-0 fiducials. Only
+// the order is taken; the positions stay the found ones.
+void OrderLikeScene(const std::string& like_scene, stages::FiducialMotion* found) {
+  const io::Scene like = io::ReadScene(like_scene);
+  if (!like.preoperative) return;
+  const Eigen::Matrix3Xd reference = stages::ReadFiducialMotion(like.preoperative->motion).positions_S_m.front();
+  const Eigen::Matrix3Xd& first = found->positions_S_m.front();
+  if (reference.cols() != first.cols()) {
+    throw Error("the CT has " + std::to_string(first.cols()) + " beads, the like scene's scan " +
+                    std::to_string(reference.cols()) + " fiducials",
+                like.preoperative->motion, "use a like scene recorded with the same markers");
+  }
+  std::vector<Eigen::Index> order(reference.cols());
+  std::vector<bool> taken(first.cols(), false);
+  for (Eigen::Index i = 0; i < reference.cols(); ++i) {
+    const double distance = (first.colwise() - reference.col(i)).colwise().norm().minCoeff(&order[i]);
+    if (taken[order[i]] || distance > kMaxFiducialMatch_m) {
+      throw Error("fiducial " + std::to_string(i) + " of the like scene has no bead of its own within " +
+                      std::to_string(1e3 * kMaxFiducialMatch_m) + " mm in the CT (nearest " +
+                      std::to_string(1e3 * distance) + " mm)",
+                  like.preoperative->motion, "use a like scene in the CT's frame, with the same markers");
+    }
+    taken[order[i]] = true;
+  }
+  for (Eigen::Matrix3Xd& phase : found->positions_S_m) phase = Eigen::Matrix3Xd(phase(Eigen::all, order));
+}
+
+class Steps {
+ public:
+  Steps(PreopSummary* summary, bool progress) : summary_(summary), progress_(progress) {}
+  template <typename Body>
+  auto Run(const std::string& name, Body&& body) {
+    if (progress_) std::fprintf(stderr, "preop: %s\n", name.c_str());
+    const Clock::time_point start = Clock::now();
+    if constexpr (std::is_void_v<decltype(body())>) {
+      body();
+      summary_->steps.push_back({name, SecondsSince(start)});
+    } else {
+      auto result = body();
+      summary_->steps.push_back({name, SecondsSince(start)});
+      return result;
+    }
+  }
+
+ private:
+  PreopSummary* summary_;
+  bool progress_;
+};
+
+}  // namespace
+
+std::string PreopOptions::Validate() const {
+  if (ct_inputs.empty()) return "give the CT: a DICOM folder of every phase, a folder per phase or a file per phase";
+  if (out_dir.empty()) return "give --out";
+  if (!(period_s > 0) && like_scene.empty()) {
+    return "give the CT's cardiac period (--period-s), or a scene to take it from (--like)";
+  }
+  if (period_s < 0) return "the period must be positive";
+  for (const std::string& problem :
+       {segmentation.Validate(), surface.Validate(), mesh.Validate(), motion.Validate()}) {
+    if (!problem.empty()) return problem;
+  }
+  return {};
+}
+
+std::string PreopSummary::Describe() const {
+  std::ostringstream text;
+  char line[256];
+  std::snprintf(line, sizeof line, "CT: %d phases of %d x %d x %d voxels (%.3g x %.3g x %.3g mm)\n", phases,
+                ct_size.x(), ct_size.y(), ct_size.z(), 1e3 * ct_spacing_m.x(), 1e3 * ct_spacing_m.y(),
+                1e3 * ct_spacing_m.z());
+  text << line;
+  std::snprintf(line, sizeof line, "mesh: %d nodes, %d tetrahedra, worst radius ratio %.3f, %d base nodes\n",
+                mesh.nodes, mesh.tets, mesh.min_radius_ratio, mesh.base_nodes);
+  text << line;
+  double worst_jacobian = 1;
+  for (const auto& phase : registration) worst_jacobian = std::min(worst_jacobian, phase.min_jacobian);
+  std::snprintf(line, sizeof line, "motion: %zu phases registered, smallest Jacobian %.3f\n",
+                registration.empty() ? 0 : registration.size() - 1, worst_jacobian);
+  text << line;
+  if (fiducials.error_m.size()) {
+    std::snprintf(line, sizeof line, "fiducials: %d, deformed against found %.3f mm on average, %.3f mm at most\n",
+                  static_cast<int>(fiducials.error_m.cols()), 1e3 * fiducials.mean_m(),
+                  1e3 * fiducials.error_m.maxCoeff());
+    text << line;
+  }
+  for (const StepTime& step : steps) {
+    std::snprintf(line, sizeof line, "  %-28s %7.2f s\n", step.step.c_str(), step.wall_s);
+    text << line;
+  }
+  std::snprintf(line, sizeof line, "preop: %.1f s\n", wall_s);
+  text << line;
+  return text.str();
+}
+
+PreopSummary RunPreop(const PreopOptions& options) {
+  if (const std::string problem = options.Validate(); !problem.empty()) {
+    throw Error("invalid preop options: " + problem, "dynaguide preop", "correct the option");
+  }
+  const Clock::time_point start = Clock::now();
+  const std::string& out = options.out_dir;
+  for (const char* sub : {"", "/ct", "/assets"}) fs::create_directories(out + sub);
+  PreopSummary summary;
+  PreopReportFile report(out + "/preop.json", options);  // marked incomplete until Complete()
+  try {
+    Steps steps(&summary, options.progress);
+
+    io::CtReadOptions reading;
+    reading.series_uids = options.series_uids;
+    reading.progress = [&](const io::CtImage& phase, int index, int count) {
+      if (options.progress) std::fprintf(stderr, "preop:   phase %d of %d: %s\n", index + 1, count, phase.source.c_str());
+    };
+    const std::vector<io::CtImage> phases =
+        steps.Run("reading the CT", [&] { return io::ReadCtPhases(options.ct_inputs, reading); });
+    summary.phases = static_cast<int>(phases.size());
+    summary.ct_size = phases.front().size;
+    summary.ct_spacing_m = phases.front().spacing_m;
+    if (phases.size() < 2) {
+      throw Error("the CT has one phase", options.ct_inputs.front(),
+                  "give every phase of the 4D CT (a series per phase, or a file per phase)");
+    }
+
+    std::vector<std::string> ct_files;
+    steps.Run("writing the phases as MetaImage", [&] {
+      for (size_t k = 0; k < phases.size(); ++k) {
+        char name[64];
+        std::snprintf(name, sizeof name, "ct/phase_%02zu.mhd", k);
+        io::WriteMetaImage(out + "/" + name, ToAxisAlignedVolume(phases[k]));
+        ct_files.push_back(out + "/" + name);
+      }
+    });
+
+    const stages::preop::Segmentation segmentation = steps.Run("segmentation", [&] {
+      if (options.label_map.empty()) return stages::preop::Segment(phases.front(), options.segmentation);
+      return stages::preop::Segment(phases.front(), io::ReadLabelMap(options.label_map), options.segmentation);
+    });
+    summary.segmentation = segmentation.report;
+
+    const io::SurfaceMesh surface = steps.Run("surface and decimation", [&] {
+      return stages::preop::ExtractSurface(segmentation.organ, options.surface, &summary.surface);
+    });
+
+    const sim::TetMesh mesh = steps.Run("tetrahedralisation", [&] {
+      sim::TetMesh tets = stages::preop::Tetrahedralise(surface, segmentation.mount, options.mesh, &summary.mesh);
+      tets.source = out + "/mesh.msh";
+      io::WriteMsh(tets, out + "/mesh.msh", 41);
+      return tets;
+    });
+    if (summary.mesh.base_nodes == 0) {
+      Logger("preop").warn("no mesh node touches the mount: the simulation has no fixed nodes and needs its "
+                           "surface constraints to hold the organ (check the mount's HU range or label)");
+    }
+
+    stages::preop::MotionProgress on_phase = [&](const stages::preop::PhaseRegistrationReport& phase) {
+      if (options.progress) {
+        std::fprintf(stderr, "preop:   phase %d registered in %.1f s (metric %.4g -> %.4g, Jacobian %.3f..%.3f)\n",
+                     phase.phase, phase.wall_s, phase.metric_before, phase.metric_after, phase.min_jacobian,
+                     phase.max_jacobian);
+      }
+    };
+    const std::vector<stages::preop::PhaseDeformation> deformations = steps.Run(
+        "B-spline motion", [&] { return stages::preop::RegisterPhases(phases, options.motion, on_phase); });
+    for (const auto& deformation : deformations) summary.registration.push_back(deformation.report());
+
+    const stages::FiducialMotion beads = steps.Run("fiducials", [&] {
+      stages::FiducialMotion found = stages::DetectBeadMotion(ct_files, {});
+      if (!options.like_scene.empty()) OrderLikeScene(options.like_scene, &found);
+      return found;
+    });
+    const int P = summary.phases, F = beads.num_fiducials(), N = mesh.num_nodes();
+    std::vector<Eigen::Matrix3Xd> deformed(P);
+    summary.fiducials.error_m.resize(P, F);
+    for (int k = 0; k < P; ++k) {
+      deformed[k] = beads.positions_S_m[0] + deformations[k].Displacements(beads.positions_S_m[0]);
+      summary.fiducials.error_m.row(k) = (deformed[k] - beads.positions_S_m[k]).colwise().norm();
+    }
+
+    steps.Run("writing scan.h5", [&] {
+      const std::vector<double> node_displacement = stages::preop::NodeDisplacementArray(deformations, mesh.X_m);
+      std::vector<double> phase_values, found, pushed;
+      for (int k = 0; k < P; ++k) {
+        phase_values.push_back(double(k) / P);
+        found.insert(found.end(), beads.positions_S_m[k].data(), beads.positions_S_m[k].data() + 3 * F);
+        pushed.insert(pushed.end(), deformed[k].data(), deformed[k].data() + 3 * F);
+      }
+      io::H5Writer scan(out + "/scan.h5");
+      scan.Write("/phases/phase", phase_values.data(), {size_t(P)});
+      scan.Write("/phases/node_displacement_m", node_displacement.data(), {size_t(P), size_t(N), 3});
+      scan.Write("/phases/fiducials_S_m", found.data(), {size_t(P), size_t(F), 3});
+      scan.Write("/phases/fiducials_deformed_S_m", pushed.data(), {size_t(P), size_t(F), 3});
+      scan.Write("/nodes_S_m", mesh.X_m.data(), {size_t(N), 3});
+      scan.WriteAttribute("/", "phases", P);
+      if (options.period_s > 0) scan.WriteAttribute("/", "period_s", options.period_s);
+    });
+
+    steps.Run("overlay assets", [&] {
+      io::SurfaceMesh organ = surface;
+      if (!options.annotation.empty()) {
+        const std::string image = "assets/annotation" + fs::path(options.annotation).extension().string();
+        fs::copy_file(options.annotation, out + "/" + image, fs::copy_options::overwrite_existing);
+        organ.uvs = PlanarUvs(organ);
+        io::WriteObj(out + "/assets/surface.obj", organ, {1.0, fs::path(image).filename().string()});
+      } else {
+        io::WriteObj(out + "/assets/surface.obj", organ);
+      }
+      for (size_t s = 0; s < segmentation.internal.size(); ++s) {
+        io::WriteObj(out + "/assets/internal_" + std::to_string(s) + ".obj",
+                     stages::preop::ExtractSurface(segmentation.internal[s], options.surface));
+      }
+    });
+
+    if (!options.like_scene.empty()) {
+      steps.Run("scene.yaml", [&] {
+        WriteSceneLike(options.like_scene, out, {.phases = P,
+                                                  .period_s = options.period_s,
+                                                  .internal_meshes = static_cast<int>(segmentation.internal.size()),
+                                                  .texture = !options.annotation.empty()});
+      });
+    }
+    summary.wall_s = SecondsSince(start);
+    report.Complete(summary);
+  } catch (const std::exception& e) {
+    summary.wall_s = SecondsSince(start);
+    report.Fail(summary, e.what());
+    throw;
+  }
+  return summary;
+}
+
+}  // namespace dg::tools::preop

@@ -1,0 +1,68 @@
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "stages/preop/motion/motion_registration.h"
+#include "stages/preop/segment/segmentation.h"
+#include "stages/preop/segment/surface_extraction.h"
+#include "stages/preop/segment/tetrahedralisation.h"
+
+namespace dg::tools::preop {
+
+// `dynaguide preop`: a 4D CT to a scene's preoperative part (paper section
+// 2.4; docs/preop.md). Each step is library code (io/ct, stages/preop); this
+// job runs them in order, times them and writes the outputs.
+struct PreopOptions {
+  std::vector<std::string> ct_inputs;  // a DICOM folder of every phase, a folder per phase, or a file per phase
+  std::vector<std::string> series_uids;  // phases chosen by SeriesInstanceUID, in cycle order
+  std::string out_dir;
+  std::string label_map;      // a segmentation on phase 0's grid; empty: automatic
+  std::string annotation;     // an image laid on the organ's surface for the texture overlay; empty: none
+  std::string like_scene;     // a scene whose video, calibration, truth and run settings scene.yaml takes
+  double period_s = 0;        // the CT's cardiac period; 0: the like scene's
+  stages::preop::SegmentationOptions segmentation;
+  stages::preop::SurfaceOptions surface;
+  stages::preop::TetrahedralisationOptions mesh;
+  stages::preop::MotionRegistrationOptions motion;
+  bool progress = true;       // a line per step and per phase on stderr
+  std::string Validate() const;  // empty when valid
+};
+
+// One step's wall time, for the report.
+struct StepTime {
+  std::string step;
+  double wall_s = 0;
+};
+
+// Per fiducial, the distance between its B-spline-deformed phase-0 position
+// and where the bead was found in each phase (the paper's Table 2, first row).
+struct FiducialErrors {
+  Eigen::MatrixXd error_m;  // [phases, fiducials]
+  double mean_m() const { return error_m.size() ? error_m.mean() : 0; }
+};
+
+struct PreopSummary {
+  int phases = 0;
+  Eigen::Vector3i ct_size = Eigen::Vector3i::Zero();
+  Eigen::Vector3d ct_spacing_m = Eigen::Vector3d::Zero();
+  stages::preop::SegmentationReport segmentation;
+  stages::preop::SurfaceReport surface;
+  stages::preop::TetrahedralisationReport mesh;
+  std::vector<stages::preop::PhaseRegistrationReport> registration;
+  FiducialErrors fiducials;
+  std::vector<StepTime> steps;
+  double wall_s = 0;
+  std::string Describe() const;  // the command's closing lines
+};
+
+// Runs every step and writes into options.out_dir (created): mesh.msh,
+// scan.h5, ct/phase_NN.mhd, assets/, preop.json, and scene.yaml with a like
+// scene. preop.json is written first marked incomplete and rewritten complete
+// at the end, so a run stopped by an error leaves that mark and the error.
+// @throws dg::Error for invalid options and from every step.
+PreopSummary RunPreop(const PreopOptions& options);
+
+}  // namespace dg::tools::preop
