@@ -14,6 +14,47 @@
 namespace dg::tools::preop {
 namespace fs = std::filesystem;
 
+PreopMotionErrors EvaluatePreopMotion(const std::string& out_dir, const std::string& phantom_dir) {
+  PreopMotionErrors errors;
+  const io::H5Reader scan(out_dir + "/scan.h5");
+  io::H5Shape shape;
+  const std::vector<double> nodes = scan.Read<double>("/nodes_S_m", &shape);
+  const size_t N = shape[0];
+  const std::vector<double> displacement = scan.Read<double>("/phases/node_displacement_m", &shape);
+  const size_t P = shape[0];
+  double sum = 0;
+  size_t count = 0;
+  for (size_t k = 1; k < P; ++k) {
+    char name[64];
+    std::snprintf(name, sizeof name, "truth/dvf_phase_%02zu.mha", k);
+    const io::DisplacementField truth = io::ReadDisplacementField((fs::path(phantom_dir) / name).string());
+    for (size_t a = 0; a < N; ++a) {
+      const Eigen::Vector3d recovered = 1e3 * Eigen::Map<const Eigen::Vector3d>(&displacement[3 * (k * N + a)]);
+      const double error = (recovered - truth.SampleMm(Eigen::Map<const Eigen::Vector3d>(&nodes[3 * a]))).norm();
+      sum += error;
+      ++count;
+      errors.node_error_max_mm = std::max(errors.node_error_max_mm, error);
+    }
+  }
+  errors.node_error_mean_mm = count ? sum / count : 0;
+
+  const stages::FiducialMotion truth = stages::ReadFiducialMotion((fs::path(phantom_dir) / "scan.h5").string());
+  const std::vector<double> deformed = scan.Read<double>("/phases/fiducials_deformed_S_m", &shape);
+  const stages::FiducialMotion found = stages::ReadFiducialMotion(out_dir + "/scan.h5");
+  const size_t F = shape[1];
+  double deformed_sum = 0, found_sum = 0;
+  for (size_t k = 0; k < P; ++k) {
+    for (size_t f = 0; f < F; ++f) {
+      const Eigen::Vector3d pushed = Eigen::Map<const Eigen::Vector3d>(&deformed[3 * (k * F + f)]);
+      deformed_sum += (pushed - truth.positions_S_m[k].col(f)).norm();
+      found_sum += (found.positions_S_m[k].col(f) - truth.positions_S_m[k].col(f)).norm();
+    }
+  }
+  errors.fiducial_deformed_mean_mm = 1e3 * deformed_sum / double(P * F);
+  errors.fiducial_found_mean_mm = 1e3 * found_sum / double(P * F);
+  return errors;
+}
+
 PreopBenchRecord RunPreopBench(const std::string& out_dir, int threads, bool progress) {
   const std::string scene = DefaultScenePath(progress);
   const fs::path phantom = fs::path(scene).parent_path();
@@ -28,42 +69,7 @@ PreopBenchRecord RunPreopBench(const std::string& out_dir, int threads, bool pro
   record.out_dir = out_dir;
   record.summary = RunPreop(options);
 
-  const io::H5Reader scan(out_dir + "/scan.h5");
-  io::H5Shape shape;
-  const std::vector<double> nodes = scan.Read<double>("/nodes_S_m", &shape);
-  const size_t N = shape[0];
-  const std::vector<double> displacement = scan.Read<double>("/phases/node_displacement_m", &shape);
-  const size_t P = shape[0];
-  double sum = 0;
-  size_t count = 0;
-  for (size_t k = 1; k < P; ++k) {
-    char name[64];
-    std::snprintf(name, sizeof name, "truth/dvf_phase_%02zu.mha", k);
-    const io::DisplacementField truth = io::ReadDisplacementField((phantom / name).string());
-    for (size_t a = 0; a < N; ++a) {
-      const Eigen::Vector3d recovered = 1e3 * Eigen::Map<const Eigen::Vector3d>(&displacement[3 * (k * N + a)]);
-      const double error = (recovered - truth.SampleMm(Eigen::Map<const Eigen::Vector3d>(&nodes[3 * a]))).norm();
-      sum += error;
-      ++count;
-      record.node_error_max_mm = std::max(record.node_error_max_mm, error);
-    }
-  }
-  record.node_error_mean_mm = count ? sum / count : 0;
-
-  const stages::FiducialMotion truth = stages::ReadFiducialMotion((phantom / "scan.h5").string());
-  const std::vector<double> deformed = scan.Read<double>("/phases/fiducials_deformed_S_m", &shape);
-  const stages::FiducialMotion found = stages::ReadFiducialMotion(out_dir + "/scan.h5");
-  const size_t F = shape[1];
-  double deformed_sum = 0, found_sum = 0;
-  for (size_t k = 0; k < P; ++k) {
-    for (size_t f = 0; f < F; ++f) {
-      const Eigen::Vector3d pushed = Eigen::Map<const Eigen::Vector3d>(&deformed[3 * (k * F + f)]);
-      deformed_sum += (pushed - truth.positions_S_m[k].col(f)).norm();
-      found_sum += (found.positions_S_m[k].col(f) - truth.positions_S_m[k].col(f)).norm();
-    }
-  }
-  record.fiducial_deformed_mean_mm = 1e3 * deformed_sum / double(P * F);
-  record.fiducial_found_mean_mm = 1e3 * found_sum / double(P * F);
+  record.errors = EvaluatePreopMotion(out_dir, phantom.string());
   return record;
 }
 
@@ -77,17 +83,17 @@ void WritePreopBenchJson(const std::string& path, const PreopBenchRecord& r) {
                                 "\"min_radius_ratio\": %.3f, \"node_error_mean_mm\": %.4f, \"node_error_max_mm\": %.4f, "
                                 "\"fiducial_deformed_mean_mm\": %.4f, \"fiducial_found_mean_mm\": %.4f",
                                 r.summary.phases, r.threads, r.summary.wall_s, steps.c_str(), r.summary.mesh.tets,
-                                r.summary.mesh.min_radius_ratio, r.node_error_mean_mm, r.node_error_max_mm,
-                                r.fiducial_deformed_mean_mm, r.fiducial_found_mean_mm)});
+                                r.summary.mesh.min_radius_ratio, r.errors.node_error_mean_mm, r.errors.node_error_max_mm,
+                                r.errors.fiducial_deformed_mean_mm, r.errors.fiducial_found_mean_mm)});
 }
 
 std::string PreopBenchTable(const PreopBenchRecord& r) {
   std::ostringstream text;
   text << r.summary.Describe();
   text << Printed("recovered motion at the %d nodes against the phantom's exact field: mean %.3f mm, max %.3f mm\n",
-                  r.summary.mesh.nodes, r.node_error_mean_mm, r.node_error_max_mm);
+                  r.summary.mesh.nodes, r.errors.node_error_mean_mm, r.errors.node_error_max_mm);
   text << Printed("fiducials against the phantom's: deformed %.3f mm, found in the CT %.3f mm on average\n",
-                  r.fiducial_deformed_mean_mm, r.fiducial_found_mean_mm);
+                  r.errors.fiducial_deformed_mean_mm, r.errors.fiducial_found_mean_mm);
   text << "scene: " << r.out_dir << "/scene.yaml\n";
   return text.str();
 }

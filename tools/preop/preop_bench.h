@@ -11,12 +11,21 @@ namespace dg::tools::preop {
 // exact displacement fields (truth/dvf_phase_NN.mha) at the mesh's nodes and
 // at the fiducials (the paper's Table 2, first row: the deformed phase-0
 // fiducials against the phantom's true per-phase fiducials).
-struct PreopBenchRecord {
-  PreopSummary summary;
-  int threads = 0;
+// A preop scene's motion against a phantom's truth.
+struct PreopMotionErrors {
   double node_error_mean_mm = 0, node_error_max_mm = 0;   // over every node of every phase
   double fiducial_deformed_mean_mm = 0;                     // deformed phase-0 fiducials against the truth's
   double fiducial_found_mean_mm = 0;                        // beads found in the CT against the truth's
+};
+
+// Reads out_dir/scan.h5 (as RunPreop writes it) and the phantom's
+// truth/dvf_phase_NN.mha and scan.h5. @throws dg::Error for a missing file.
+PreopMotionErrors EvaluatePreopMotion(const std::string& out_dir, const std::string& phantom_dir);
+
+struct PreopBenchRecord {
+  PreopSummary summary;
+  int threads = 0;
+  PreopMotionErrors errors;
   std::string out_dir;
 };
 
