@@ -6,7 +6,6 @@
 #include <exception>
 #include <functional>
 #include <map>
-#include <mutex>
 #include <numbers>
 #include <string>
 #include <vector>
@@ -16,6 +15,7 @@
 #include <gmsh.h>
 #include <spdlog/spdlog.h>
 
+#include "io/gmsh_session.h"
 #include "sim/error.h"
 #include "sim/log.h"
 
@@ -33,78 +33,6 @@ constexpr double kTetCountGoodEnough = 0.05;
 
 // Elements flatter than this make the explicit solver's stable step tiny.
 constexpr double kPoorRadiusRatio = 0.05;
-
-// Gmsh keeps its state in process-wide singletons: one session at a time.
-std::mutex& GmshMutex() {
-  static std::mutex mutex;
-  return mutex;
-}
-
-// One use of Gmsh, from initialize to finalize, holding the mutex throughout.
-// Run() turns whatever Gmsh throws (in 4.8 often a bare std::string, or a
-// non-standard type with only logger::getLastError to explain it) into a
-// dg::Error naming the step and the request.
-class GmshSession {
- public:
-  GmshSession(std::string where, std::string fix)
-      : lock_(GmshMutex()), where_(std::move(where)), fix_(std::move(fix)) {
-    // Config files are skipped so that a user's gmshrc cannot change the mesh.
-    gmsh::initialize(0, nullptr, /*readConfigFiles=*/false);
-    try {
-      Configure();
-    } catch (...) {
-      gmsh::finalize();
-      throw;
-    }
-  }
-  ~GmshSession() { gmsh::finalize(); }
-  GmshSession(const GmshSession&) = delete;
-  GmshSession& operator=(const GmshSession&) = delete;
-
-  template <class F>
-  void Run(const std::string& step, F&& f) {
-    std::string reason;
-    try {
-      f();
-      return;
-    } catch (const std::string& message) {
-      reason = message;
-    } catch (const std::exception& e) {
-      reason = e.what();
-    } catch (...) {
-      gmsh::logger::getLastError(reason);
-    }
-    if (reason.empty()) reason = "no message";
-    throw Error(step + " failed in Gmsh: " + reason, where_, fix_);
-  }
-
- private:
-  void Configure() {
-    Run("configuring Gmsh", [] {
-      gmsh::option::setNumber("General.Terminal", 0);
-      gmsh::logger::start();  // keeps messages for getLastError
-      gmsh::option::setNumber("General.NumThreads", 1);
-      gmsh::option::setNumber("Mesh.RandomSeed", 1);
-      // Delaunay in 2D and 3D. Frontal-Delaunay surfaces (Gmsh's default) left
-      // 3D Delaunay with boundary slivers on ellipsoids that its optimiser could
-      // not remove (radius ratio down to 2e-4); Delaunay surfaces gave above 0.1
-      // on every size we tried. HXT (Algorithm3D = 10) is faster but gave a
-      // different ellipsoid mesh on each run, even on one thread.
-      gmsh::option::setNumber("Mesh.Algorithm", 5);
-      gmsh::option::setNumber("Mesh.Algorithm3D", 1);
-      gmsh::option::setNumber("Mesh.Optimize", 1);
-      gmsh::option::setNumber("Mesh.ElementOrder", 1);
-      // A uniform size from MeshSizeMin/Max alone, so the count follows h.
-      gmsh::option::setNumber("Mesh.MeshSizeFromPoints", 0);
-      gmsh::option::setNumber("Mesh.MeshSizeFromCurvature", 0);
-      gmsh::option::setNumber("Mesh.MeshSizeExtendFromBoundary", 0);
-    });
-  }
-
-  std::lock_guard<std::mutex> lock_;
-  std::string where_;
-  std::string fix_;
-};
 
 std::string Dims(const Eigen::Vector3d& v) {
   return fmt::format("{:g} x {:g} x {:g} m", v.x(), v.y(), v.z());

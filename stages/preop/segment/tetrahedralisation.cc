@@ -4,7 +4,6 @@
 #include <cmath>
 #include <exception>
 #include <map>
-#include <mutex>
 #include <numbers>
 #include <string>
 #include <utility>
@@ -15,6 +14,7 @@
 #include <gmsh.h>
 
 #include "io/gmsh_mesher.h"
+#include "io/gmsh_session.h"
 #include "sim/error.h"
 #include "sim/log.h"
 #include "stages/preop/segment/surface_extraction.h"
@@ -29,69 +29,6 @@ constexpr const char* kWhere = "tetrahedralisation of the segmented surface";
 // the first pass relies on it.
 constexpr double kTetsPerCubicLength = 5.0;
 constexpr double kTetCountGoodEnough = 0.05;
-
-// Gmsh keeps its state in process-wide singletons: one session at a time.
-// (io/gmsh_mesher.cc holds its own mutex: the two must not run at once from
-// different threads; the preop command runs them one after the other.)
-std::mutex& GmshMutex() {
-  static std::mutex mutex;
-  return mutex;
-}
-
-// One use of Gmsh, from initialize to finalize, holding the mutex throughout;
-// Run() turns whatever Gmsh throws into a dg::Error naming the step.
-class GmshSession {
- public:
-  GmshSession() : lock_(GmshMutex()) {
-    gmsh::initialize(0, nullptr, /*readConfigFiles=*/false);  // a user's gmshrc cannot change the mesh
-    try {
-      Run("configuring Gmsh", [] {
-        gmsh::option::setNumber("General.Terminal", 0);
-        gmsh::logger::start();  // keeps messages for getLastError
-        gmsh::option::setNumber("General.NumThreads", 1);
-        gmsh::option::setNumber("Mesh.RandomSeed", 1);
-        // Frontal-Delaunay on the surface patches, Delaunay in 3D. On the
-        // phantom's reparametrised patches Delaunay surfaces (io/gmsh_mesher.cc's
-        // choice for CAD ellipsoids) left a boundary sliver of radius ratio
-        // 0.02; frontal ones gave 0.2.
-        gmsh::option::setNumber("Mesh.Algorithm", 6);
-        gmsh::option::setNumber("Mesh.Algorithm3D", 1);
-        gmsh::option::setNumber("Mesh.Optimize", 1);
-        gmsh::option::setNumber("Mesh.ElementOrder", 1);
-        gmsh::option::setNumber("Mesh.MeshSizeFromPoints", 0);
-        gmsh::option::setNumber("Mesh.MeshSizeFromCurvature", 0);
-        gmsh::option::setNumber("Mesh.MeshSizeExtendFromBoundary", 0);
-      });
-    } catch (...) {
-      gmsh::finalize();
-      throw;
-    }
-  }
-  ~GmshSession() { gmsh::finalize(); }
-  GmshSession(const GmshSession&) = delete;
-  GmshSession& operator=(const GmshSession&) = delete;
-
-  template <class F>
-  void Run(const std::string& step, F&& f) {
-    std::string reason;
-    try {
-      f();
-      return;
-    } catch (const std::string& message) {
-      reason = message;
-    } catch (const std::exception& e) {
-      reason = e.what();
-    } catch (...) {
-      gmsh::logger::getLastError(reason);
-    }
-    if (reason.empty()) reason = "no message";
-    throw Error(step + " failed in Gmsh: " + reason, kWhere,
-                "check that the surface is one closed, non-self-intersecting shell; try another target count");
-  }
-
- private:
-  std::lock_guard<std::mutex> lock_;
-};
 
 // Throws unless every edge is shared by exactly two triangles.
 void RequireClosed(const io::SurfaceMesh& surface) {
@@ -174,7 +111,7 @@ void BuildVolume(const io::SurfaceMesh& surface, double feature_angle_rad) {
   gmsh::model::geo::synchronize();
 }
 
-sim::TetMesh ReadTetMesh(GmshSession* session) {
+sim::TetMesh ReadTetMesh(io::GmshSession* session) {
   std::vector<std::size_t> node_tags, tet_tags, tet_nodes;
   std::vector<double> coords, parametric;
   session->Run("reading the mesh", [&] {
@@ -254,7 +191,9 @@ sim::TetMesh Tetrahedralise(const io::SurfaceMesh& surface, const VoxelMask& mou
   sim::TetMesh mesh;
   TetrahedralisationReport r;
   {
-    GmshSession session;
+    io::GmshSession session(kWhere,
+                            "check that the surface is one closed, non-self-intersecting shell; try another target count",
+                            io::GmshSession::SurfaceAlgorithm::kFrontalDelaunay);
     session.Run("building the volume from the surface",
                 [&] { BuildVolume(surface, options.feature_angle_deg * std::numbers::pi / 180); });
 
