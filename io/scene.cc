@@ -154,6 +154,8 @@ Scene::Simulation ReadSimulation(const YamlMap& map) {
   simulation.max_tie_distance_m = map.Number("max_tie_distance_m", simulation.max_tie_distance_m);
   simulation.outlier_gate_min_m = map.Number("outlier_gate_min_m", simulation.outlier_gate_min_m);
   simulation.outlier_gate_scale = map.Number("outlier_gate_scale", simulation.outlier_gate_scale);
+  simulation.outlier_neighbour_radius_m =
+      map.Number("outlier_neighbour_radius_m", simulation.outlier_neighbour_radius_m);
   if (!(simulation.dt_s > 0)) throw Error("'dt_s' must be positive", map.Where("dt_s"), "the paper uses 2e-4 s");
   if (!(simulation.damping_per_s >= 0)) {
     throw Error("'damping_per_s' must not be negative", map.Where("damping_per_s"), "the paper uses 75 per second");
@@ -175,6 +177,10 @@ Scene::Simulation ReadSimulation(const YamlMap& map) {
   if (!(simulation.outlier_gate_scale >= 1)) {
     throw Error("'outlier_gate_scale' must be at least 1", map.Where("outlier_gate_scale"),
                 "give a multiple of the frame's median departure (default 3)");
+  }
+  if (!(simulation.outlier_neighbour_radius_m > 0)) {
+    throw Error("'outlier_neighbour_radius_m' must be positive", map.Where("outlier_neighbour_radius_m"),
+                "give a few surface mesh edges (default 5e-3 m)");
   }
   map.RejectUnknown();
   return simulation;

@@ -88,6 +88,9 @@ struct Scene {
     // these (metres; times the frame's median departure) is left out that frame.
     double outlier_gate_min_m = 1e-3;
     double outlier_gate_scale = 3;
+    // Features tied within this distance of each other are neighbours: one
+    // departing from its neighbours' median by more than the gate is left out too.
+    double outlier_neighbour_radius_m = 5e-3;
   };
   std::optional<Simulation> simulation;
 

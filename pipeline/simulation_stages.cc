@@ -103,6 +103,7 @@ void ConstraintAdapter::Process(FramePacket& packet) {
     options.max_tie_distance_m = setup_->options.max_tie_distance_m;
     options.outlier_gate_min_m = setup_->options.outlier_gate_min_m;
     options.outlier_gate_scale = setup_->options.outlier_gate_scale;
+    options.neighbour_radius_m = setup_->options.outlier_neighbour_radius_m;
     mapper_ = std::make_unique<stages::ConstraintMapper>(options, mesh.X_m, first, setup_->surface_nodes,
                                                          setup_->fixed_nodes,
                                                          Eigen::Isometry3d(registration_->T_C_S));

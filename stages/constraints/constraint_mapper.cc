@@ -9,6 +9,10 @@
 namespace dg::stages {
 namespace {
 
+// A median of a few neighbours' residuals judges a feature only when a
+// majority of them can outvote it and one bad neighbour cannot decide it.
+constexpr int kMinSeenNeighbours = 3;
+
 // The free surface nodes and their positions at the first frame.
 NearestPointGrid MakeGrid(const Eigen::Matrix3Xd& reference_S_m, const Eigen::Matrix3Xd& first_displacement_S_m,
                           const std::vector<int>& surface_nodes, const std::vector<int>& fixed_nodes) {
@@ -43,6 +47,7 @@ std::string ConstraintMapper::Options::Validate() const {
   if (!(max_tie_distance_m > 0)) return "max_tie_distance_m must be positive";
   if (!(outlier_gate_min_m > 0)) return "outlier_gate_min_m must be positive";
   if (!(outlier_gate_scale >= 1)) return "outlier_gate_scale must be at least 1 (times the median departure)";
+  if (!(neighbour_radius_m > 0)) return "neighbour_radius_m must be positive";
   return {};
 }
 
@@ -77,20 +82,53 @@ void ConstraintMapper::TieFeatures(const std::vector<TrackedPoint>& points) {
       ++untied_;
       continue;
     }
-    ties_[point.id] = {hit.id, x_S};
+    if (!tie_of_feature_.emplace(point.id, static_cast<int>(ties_.size())).second) continue;
+    ties_.push_back({hit.id, x_S, {}});
     node_tied[hit.id] = true;
   }
   tied_nodes_ = static_cast<int>(std::count(node_tied.begin(), node_tied.end(), true));
+  FindNeighbours();
 }
 
-double ConstraintMapper::Gate(const Eigen::Matrix3Xd& predicted_displacement_S_m) {
-  departures_m_.clear();
-  for (const Seen& seen : seen_) {
-    departures_m_.push_back((seen.target_S_m - predicted_displacement_S_m.col(seen.node)).norm());
+void ConstraintMapper::FindNeighbours() {
+  // Once per run over a few hundred ties: the direct double loop is enough.
+  const double r2 = options_.neighbour_radius_m * options_.neighbour_radius_m;
+  for (size_t a = 0; a < ties_.size(); ++a) {
+    for (size_t b = a + 1; b < ties_.size(); ++b) {
+      if ((ties_[a].first_S_m - ties_[b].first_S_m).squaredNorm() <= r2) {
+        ties_[a].neighbours.push_back(static_cast<int>(b));
+        ties_[b].neighbours.push_back(static_cast<int>(a));
+      }
+    }
   }
-  if (departures_m_.empty()) return options_.outlier_gate_min_m;
-  const auto middle = departures_m_.begin() + departures_m_.size() / 2;
-  std::nth_element(departures_m_.begin(), middle, departures_m_.end());
+}
+
+void ConstraintMapper::MeasureNeighbourDepartures() {
+  for (Seen& seen : seen_) {
+    const Tie& tie = ties_[seen.tie];
+    Eigen::Vector3d median;
+    for (int i = 0; i < 3; ++i) {
+      scratch_.clear();
+      for (int b : tie.neighbours) {
+        if (ties_[b].seen_as >= 0) scratch_.push_back(seen_[ties_[b].seen_as].residual_S_m[i]);
+      }
+      if (static_cast<int>(scratch_.size()) < kMinSeenNeighbours) break;
+      const auto middle = scratch_.begin() + scratch_.size() / 2;
+      std::nth_element(scratch_.begin(), middle, scratch_.end());
+      median[i] = *middle;
+      if (i == 2) seen.neighbour_departure_m = (seen.residual_S_m - median).norm();
+    }
+  }
+}
+
+double ConstraintMapper::Gate(double Seen::*departure) {
+  scratch_.clear();
+  for (const Seen& seen : seen_) {
+    if (seen.*departure >= 0) scratch_.push_back(seen.*departure);
+  }
+  if (scratch_.empty()) return options_.outlier_gate_min_m;
+  const auto middle = scratch_.begin() + scratch_.size() / 2;
+  std::nth_element(scratch_.begin(), middle, scratch_.end());
   return std::max(options_.outlier_gate_min_m, options_.outlier_gate_scale * *middle);
 }
 
@@ -105,15 +143,26 @@ void ConstraintMapper::Process(const std::vector<TrackedPoint>& points,
     first_ = false;
     TieFeatures(points);
   }
+  for (const Seen& seen : seen_) ties_[seen.tie].seen_as = -1;  // last frame's marks
   seen_.clear();
   for (const TrackedPoint& point : points) {
-    const auto tie = ties_.find(point.id);
-    if (tie == ties_.end()) continue;
-    const int a = tie->second.node;
-    seen_.push_back({a, first_displacement_S_m_.col(a) + (T_S_C_ * point.xyz_C_m - tie->second.first_S_m)});
+    const auto found = tie_of_feature_.find(point.id);
+    if (found == tie_of_feature_.end()) continue;
+    Tie& tie = ties_[found->second];
+    if (tie.seen_as >= 0) continue;  // a feature id twice in one frame: the first sighting counts
+    Seen seen{found->second, first_displacement_S_m_.col(tie.node) + (T_S_C_ * point.xyz_C_m - tie.first_S_m)};
+    seen.residual_S_m = seen.target_S_m;
+    if (predicted_displacement_S_m) {
+      seen.residual_S_m -= predicted_displacement_S_m->col(tie.node);
+      seen.departure_m = seen.residual_S_m.norm();
+    }
+    tie.seen_as = static_cast<int>(seen_.size());
+    seen_.push_back(seen);
   }
+  MeasureNeighbourDepartures();
   const double gate_m =
-      predicted_displacement_S_m ? Gate(*predicted_displacement_S_m) : std::numeric_limits<double>::infinity();
+      predicted_displacement_S_m ? Gate(&Seen::departure_m) : std::numeric_limits<double>::infinity();
+  const double neighbour_gate_m = Gate(&Seen::neighbour_departure_m);
 
   std::vector<int>& touched = targets->nodes;  // sorted below: the constrained nodes
   touched.clear();
@@ -121,17 +170,17 @@ void ConstraintMapper::Process(const std::vector<TrackedPoint>& points,
   targets->features.clear();
   targets->gated_features = 0;
   for (const Seen& seen : seen_) {
-    if (predicted_displacement_S_m &&
-        (seen.target_S_m - predicted_displacement_S_m->col(seen.node)).norm() > gate_m) {
+    if (seen.departure_m > gate_m || seen.neighbour_departure_m > neighbour_gate_m) {
       ++targets->gated_features;
       continue;
     }
-    if (count_[seen.node] == 0) {
-      sum_[seen.node].setZero();
-      touched.push_back(seen.node);
+    const int a = ties_[seen.tie].node;
+    if (count_[a] == 0) {
+      sum_[a].setZero();
+      touched.push_back(a);
     }
-    sum_[seen.node] += seen.target_S_m;
-    ++count_[seen.node];
+    sum_[a] += seen.target_S_m;
+    ++count_[a];
   }
   std::sort(touched.begin(), touched.end());
   for (int a : touched) {

@@ -41,7 +41,14 @@ struct NodeTargets {
 // well the prediction holds this frame: the larger of outlier_gate_min_m and
 // outlier_gate_scale times the median departure over all seen tied features,
 // so a prediction that is off everywhere (a drifting cardiac phase) widens it
-// instead of untying the whole surface (docs/constraints.md).
+// instead of untying the whole surface. A second gate asks the neighbours: a
+// feature whose residual (its target minus the prediction, or without one its
+// target) departs from the median residual of the seen features tied within
+// neighbour_radius_m of it is left out too, by the same rule (the larger of
+// outlier_gate_min_m and outlier_gate_scale times the frame's median
+// neighbour departure). Neighbouring tissue moves together, so a few features
+// pulling a patch millimetres away from the features around it are wrong even
+// when the scan's prediction is too far off to tell (docs/constraints.md).
 // Stateful: frames in order, one at a time (a serial node).
 class ConstraintMapper {
  public:
@@ -52,6 +59,10 @@ class ConstraintMapper {
     // Outlier gate (see above); unused without a prediction.
     double outlier_gate_min_m = 1e-3;
     double outlier_gate_scale = 3;
+    // Features tied within this distance of each other (at the first frame)
+    // are neighbours for the second gate: a few mesh edges, over which the
+    // tissue's motion differs by much less than the gate.
+    double neighbour_radius_m = 5e-3;
     std::string Validate() const;  // empty when valid
   };
 
@@ -80,28 +91,38 @@ class ConstraintMapper {
  private:
   struct Tie {
     int node;
-    Eigen::Vector3d first_S_m;  // the feature's position at the first frame
+    Eigen::Vector3d first_S_m;    // the feature's position at the first frame
+    std::vector<int> neighbours;  // the other ties within neighbour_radius_m (indices into ties_)
+    int seen_as = -1;             // this frame's index in seen_, or -1 when not seen
   };
   struct Seen {
-    int node;
-    Eigen::Vector3d target_S_m;  // the node's displacement as this feature says it
+    int tie;
+    Eigen::Vector3d target_S_m;    // the node's displacement as this feature says it
+    Eigen::Vector3d residual_S_m;  // the target minus the prediction (or the target, without one)
+    double departure_m = 0;        // from the prediction
+    double neighbour_departure_m = -1;  // from the neighbours' median residual; -1: too few seen
   };
 
   void TieFeatures(const std::vector<TrackedPoint>& points);
-  double Gate(const Eigen::Matrix3Xd& predicted_displacement_S_m);
+  void FindNeighbours();
+  // The median neighbour residual of every seen feature with enough seen neighbours.
+  void MeasureNeighbourDepartures();
+  // The larger of the floor and the scale times the median of `departures` (negative ones skipped).
+  double Gate(double Seen::*departure);
 
   Options options_;
   Eigen::Isometry3d T_S_C_;
   Eigen::Matrix3Xd first_displacement_S_m_;
   NearestPointGrid grid_;
-  std::unordered_map<std::int64_t, Tie> ties_;
+  std::vector<Tie> ties_;
+  std::unordered_map<std::int64_t, int> tie_of_feature_;
   bool first_ = true;
   int untied_ = 0, tied_nodes_ = 0;
   // Per node, this frame's sum of feature displacements and count (reset each frame).
   std::vector<Eigen::Vector3d> sum_;
   std::vector<int> count_;
   std::vector<Seen> seen_;             // this frame's tied features (reused)
-  std::vector<double> departures_m_;   // scratch for the gate's median
+  std::vector<double> scratch_;        // for medians
 };
 
 }  // namespace dg::stages

@@ -147,11 +147,61 @@ TEST_CASE("constraint mapper: features departing from the prediction are gated",
   REQUIRE(gated.nodes.size() == n - 2);
   REQUIRE(std::find(gated.nodes.begin(), gated.nodes.end(), 7) == gated.nodes.end());
   REQUIRE(mapper.Process(frame(0), &predicted).gated_features == 0);  // back in when it agrees
-  REQUIRE(mapper.Process(frame(3e-3)).gated_features == 0);           // no prediction, no gate
+  REQUIRE(mapper.Process(frame(3e-3)).gated_features == 0);  // no prediction, no neighbour within 5 mm: no gate
 
   predicted.row(0).array() -= 1.5e-3;  // a prediction off everywhere: the gate widens to 3 x 1.5 mm
   REQUIRE(mapper.Process(frame(3e-3), &predicted).gated_features == 0);
   REQUIRE(mapper.Process(frame(6e-3), &predicted).gated_features == 1);
+}
+
+// The neighbour gate: a patch of tissue 12 x 12 mm, features 1.5 mm apart,
+// stretched by 5% (neighbouring features move apart by less than 0.1 mm).
+// Three adjacent features pull 2 mm away from the features around them. The
+// scan's prediction is off everywhere by 1.5 mm, which widens the prediction
+// gate to 4.5 mm: only the neighbours can tell. The three are left out, with
+// a prediction and without one, and no other feature is.
+TEST_CASE("constraint mapper: features departing from their neighbours are gated", "[unit]") {
+  const int side = 9, n = side * side + 1;
+  Scene s;
+  s.X_S = Eigen::Matrix3Xd::Zero(3, n);
+  s.X_S.col(0) = Eigen::Vector3d(0, 0, -0.01);  // the mount
+  for (int a = 1; a < n; ++a) s.X_S.col(a) = 1.5e-3 * Eigen::Vector3d((a - 1) % side, (a - 1) / side, 0);
+  s.first_u_S = Eigen::Matrix3Xd::Zero(3, n);
+  for (int a = 1; a < n; ++a) s.surface.push_back(a);
+  s.fixed = {0};
+  s.T_C_S = Eigen::Isometry3d(Eigen::Translation3d(0, 0, 0.08));
+  ConstraintMapper mapper({}, s.X_S, s.first_u_S, s.surface, s.fixed, s.T_C_S);
+  std::vector<TrackedPoint> first;
+  for (int a = 1; a < n; ++a) first.push_back(Feature(a, s, s.X_S.col(a)));
+  mapper.Process(first);
+
+  const std::vector<int> pulled = {41, 42, 50};  // adjacent, in the middle of the patch
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> noise(-0.1e-3, 0.1e-3);
+  Eigen::Matrix3Xd motion(3, n);
+  for (int a = 0; a < n; ++a) motion.col(a) = 0.05 * s.X_S.col(a) + Eigen::Vector3d(0.5e-3, 1e-3, 0.3e-3);
+  auto frame = [&](double pull_m) {
+    std::vector<TrackedPoint> seen;
+    for (int a = 1; a < n; ++a) {
+      Eigen::Vector3d x = s.X_S.col(a) + motion.col(a) + Eigen::Vector3d(noise(rng), noise(rng), noise(rng));
+      if (std::count(pulled.begin(), pulled.end(), a)) x.z() += pull_m;
+      seen.push_back(Feature(a, s, x));
+    }
+    return seen;
+  };
+  Eigen::Matrix3Xd predicted = motion;
+  predicted.row(1).array() += 1.5e-3;
+
+  REQUIRE(mapper.Process(frame(0), &predicted).gated_features == 0);  // the stretch alone is no outlier
+  REQUIRE(mapper.Process(frame(0)).gated_features == 0);
+  for (const Eigen::Matrix3Xd* prediction : std::vector<const Eigen::Matrix3Xd*>{&predicted, nullptr}) {
+    const NodeTargets targets = mapper.Process(frame(2e-3), prediction);
+    REQUIRE(targets.gated_features == 3);
+    REQUIRE(targets.nodes.size() == size_t(n - 1 - 3));
+    for (int a : pulled) REQUIRE(std::find(targets.nodes.begin(), targets.nodes.end(), a) == targets.nodes.end());
+  }
+  // A smaller pull, within what neighbouring tissue can differ by, is kept.
+  REQUIRE(mapper.Process(frame(0.6e-3), &predicted).gated_features == 0);
 }
 
 TEST_CASE("constraint mapper: bad set-up is an error with a reason", "[unit]") {
@@ -163,6 +213,8 @@ TEST_CASE("constraint mapper: bad set-up is an error with a reason", "[unit]") {
   REQUIRE_THROWS_WITH(ConstraintMapper({-1}, s.X_S, s.first_u_S, s.surface, s.fixed, s.T_C_S), Contains("max_tie_distance_m"));
   REQUIRE_THROWS_WITH(ConstraintMapper({3e-3, 1e-3, 0.5}, s.X_S, s.first_u_S, s.surface, s.fixed, s.T_C_S),
                       Contains("outlier_gate_scale"));
+  REQUIRE_THROWS_WITH(ConstraintMapper({3e-3, 1e-3, 3, 0}, s.X_S, s.first_u_S, s.surface, s.fixed, s.T_C_S),
+                      Contains("neighbour_radius_m"));
   ConstraintMapper mapper({3e-3}, s.X_S, s.first_u_S, s.surface, s.fixed, s.T_C_S);
   const Eigen::Matrix3Xd too_few = Eigen::Matrix3Xd::Zero(3, 2);
   REQUIRE_THROWS_WITH(mapper.Process({}, &too_few), Contains("prediction has 2 nodes"));
