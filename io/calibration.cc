@@ -10,6 +10,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/core/eigen.hpp>
 
+#include "io/input_file.h"
 #include "sim/error.h"
 
 namespace dg::io {
@@ -34,9 +35,7 @@ class CalibrationFile {
  public:
   explicit CalibrationFile(const std::string& path) : path_(path) {
     // Checked first: OpenCV would also log its own error for a missing file.
-    if (!std::filesystem::is_regular_file(path)) {
-      throw Error("no such calibration file", path, "check the path");
-    }
+    RequireRegularFile(path, "calibration file", "check the path");
     try {
       storage_.open(path, cv::FileStorage::READ);
     } catch (const cv::Exception& error) {

@@ -10,6 +10,7 @@
 #include <utility>
 #include <vector>
 
+#include "io/input_file.h"
 #include "sim/error.h"
 #include "sim/log.h"
 
@@ -25,10 +26,13 @@ const std::string kRemesh =
 // so that every error can name the line it is on.
 class LineReader {
  public:
-  explicit LineReader(const std::string& path) : path_(path), in_(path) {
+  explicit LineReader(const std::string& path) : path_(path) {
+    RequireRegularFile(path, "mesh file", "check the path: give a Gmsh .msh file");
+    in_.open(path);
     if (!in_) {
       throw Error("cannot open mesh file", path, "check the path and that the file is readable");
     }
+    RequireTextStart();
   }
 
   // Moves to the next non-blank line; false at the end of the file.
@@ -124,6 +128,22 @@ class LineReader {
       tokens_.push_back(view.substr(start, stop - start));
       i = stop;
     }
+  }
+
+  // A .msh file, ASCII or binary, starts with the text line $MeshFormat: a
+  // file whose first line is not text is not one (and, read by lines, could
+  // take gigabytes to reach its first line end).
+  void RequireTextStart() {
+    char start[256];
+    in_.read(start, sizeof start);
+    const size_t size = static_cast<size_t>(in_.gcount());
+    const size_t line_end = std::find(start, start + size, '\n') - start;
+    if ((line_end == size && size == sizeof start) || FirstBinaryByte(start, line_end) < line_end) {
+      throw Error("the mesh file is not a Gmsh .msh file (its first line is not text)", path_ + ":1",
+                  "check the path: give a Gmsh .msh file (gmsh -3 model.geo -format msh41)");
+    }
+    in_.clear();
+    in_.seekg(0);
   }
 
   std::string path_;

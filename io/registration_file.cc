@@ -9,6 +9,7 @@
 #include <Eigen/Dense>
 
 #include "io/h5_file.h"
+#include "io/input_file.h"
 #include "io/yaml_map.h"
 #include "sim/error.h"
 
@@ -113,11 +114,8 @@ void WriteRegistrationYaml(const std::string& path, const Registration& registra
 }
 
 Registration ReadRegistrationYaml(const std::string& path) {
-  std::ifstream file(path);
-  if (!file) throw Error("cannot read the registration file", path, "give the file dynaguide register --out wrote");
-  std::stringstream text;
-  text << file.rdbuf();
-  const YamlMap map(ParseYaml(text.str(), path), path, "");
+  const std::string text = ReadTextFile(path, "registration file", "give the file dynaguide register --out wrote");
+  const YamlMap map(ParseYaml(text, path), path, "");
   Registration r;
   r.T_C_S = ReadMatrix(map, "T_C_S", 4, 4);
   const Eigen::Matrix3d R = r.T_C_S.topLeftCorner<3, 3>();
@@ -153,8 +151,7 @@ void WriteRegistrationH5(io::H5Writer* file, const std::string& group, const Reg
 }
 
 std::vector<Eigen::Vector2d> ReadFiducialPixels(const std::string& path) {
-  std::ifstream file(path);
-  if (!file) throw Error("cannot read the fiducial pixels", path, "give a text file of u,v lines");
+  std::istringstream file(ReadTextFile(path, "fiducial pixel file", "give a text file of u,v lines"));
   std::vector<Eigen::Vector2d> uv;
   std::string line;
   for (int number = 1; std::getline(file, line); ++number) {

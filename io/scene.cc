@@ -6,6 +6,7 @@
 #include <regex>
 #include <sstream>
 
+#include "io/input_file.h"
 #include "io/units.h"
 #include "io/yaml_map.h"
 #include "sim/error.h"
@@ -189,16 +190,13 @@ Scene::Simulation ReadSimulation(const YamlMap& map) {
 }  // namespace
 
 Scene ReadScene(const std::string& path) {
-  std::ifstream file(path);
-  if (!file) throw Error("cannot open the scene file", path, "check the path (dynaguide phantom writes one)");
-  std::stringstream text;
-  text << file.rdbuf();
-  const YAML::Node root = ParseYaml(text.str(), path);
+  const std::string text = ReadTextFile(path, "scene file", "check the path (dynaguide phantom writes one)");
+  const YAML::Node root = ParseYaml(text, path);
   const fs::path directory = fs::absolute(path).parent_path();
   const YamlMap top(root, path, "");
   Scene scene;
   scene.path = fs::absolute(path).string();
-  scene.text = text.str();
+  scene.text = text;
   scene.name = top.String("name", fs::path(path).parent_path().filename().string());
 
   const YamlMap mesh = top.Map("mesh");

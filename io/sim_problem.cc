@@ -8,6 +8,7 @@
 
 #include "io/gmsh_mesher.h"
 #include "io/gmsh_reader.h"
+#include "io/input_file.h"
 #include "io/units.h"
 #include "io/yaml_map.h"
 #include "sim/error.h"
@@ -186,11 +187,9 @@ SimProblem ParseSimProblem(const std::string& yaml_text, const std::string& path
 }
 
 SimProblem ReadSimProblem(const std::string& path) {
-  std::ifstream file(path);
-  if (!file) throw Error("cannot open problem file", path, "check the path (run 'dynaguide sim' without one for the built-in example)");
-  std::stringstream text;
-  text << file.rdbuf();
-  return ParseSimProblem(text.str(), path, std::filesystem::path(path).parent_path().string());
+  const std::string text = ReadTextFile(path, "problem file",
+                                        "check the path (run 'dynaguide sim' without one for the built-in example)");
+  return ParseSimProblem(text, path, std::filesystem::path(path).parent_path().string());
 }
 
 sim::TetMesh LoadProblemMesh(const MeshSource& source) {

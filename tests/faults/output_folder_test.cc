@@ -1,0 +1,93 @@
+// A run owns its output folder: a second writer is refused naming the
+// holder's pid, and an earlier run's files are removed before a new run
+// writes, never mixed with its own (io::OutputFolderClaim).
+#include "io/output_folder.h"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <string>
+
+#include <catch2/catch.hpp>
+
+#include "tests/support/tiny_phantom.h"
+#include "tools/run/run_job.h"
+
+namespace dg::io {
+namespace {
+
+namespace fs = std::filesystem;
+using Catch::Matchers::Contains;
+
+std::string FreshFolder(const std::string& name) {
+  const std::string folder = (fs::temp_directory_path() / ("dg_faults_" + name + "_" + std::to_string(getpid()))).string();
+  fs::remove_all(folder);
+  return folder;
+}
+
+void WriteText(const fs::path& path, const std::string& text) { std::ofstream(path) << text; }
+
+std::string ReadText(const fs::path& path) {
+  std::ifstream in(path);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+TEST_CASE("output folder: a second claim is refused naming the holder's pid, and allowed once released",
+          "[faults][unit]") {
+  const std::string folder = FreshFolder("claim");
+  const std::string pid = std::to_string(getpid());
+  {
+    const OutputFolderClaim first(folder, "dynaguide run", {"run.h5"});
+    REQUIRE(fs::is_directory(folder));
+    // flock conflicts between open files, so a second claim in this process stands for another process.
+    REQUIRE_THROWS_WITH(OutputFolderClaim(folder, "dynaguide run", {"run.h5"}),
+                        Contains("in use by another dynaguide process (pid " + pid + ")") &&
+                            Contains("give dynaguide run another --out"));
+  }
+  REQUIRE_NOTHROW(OutputFolderClaim(folder, "dynaguide run", {"run.h5"}));
+  fs::remove_all(folder);
+}
+
+TEST_CASE("output folder: an earlier run's outputs are removed; other files and the run's inputs are kept",
+          "[faults][unit]") {
+  const fs::path folder = FreshFolder("stale");
+  fs::create_directories(folder);
+  for (const char* name : {"run.h5", "run.h5.part", "composite_00003.png", "annotated.avi", "registration.yaml",
+                           "notes.txt", "composite.txt"}) {
+    WriteText(folder / name, "earlier");
+  }
+  const OutputFolderClaim claim(folder.string(), "dynaguide run", tools::RunOutputNames(),
+                                {(folder / "registration.yaml").string()});
+  std::vector<std::string> removed = claim.removed();
+  std::sort(removed.begin(), removed.end());
+  REQUIRE(removed == std::vector<std::string>{"annotated.avi", "composite_00003.png", "run.h5", "run.h5.part"});
+  for (const char* kept : {"registration.yaml", "notes.txt", "composite.txt"}) REQUIRE(fs::exists(folder / kept));
+  REQUIRE(MatchesOutputName("composite_00012.png", "composite_*.png"));
+  REQUIRE_FALSE(MatchesOutputName("composite_00012.jpg", "composite_*.png"));
+  fs::remove_all(folder);
+}
+
+// While another process holds the folder, `dynaguide run` into it stops
+// before writing anything, and the holder's log is left as it was.
+TEST_CASE("output folder: a run into a folder in use is refused and leaves the holder's files untouched",
+          "[faults][integration]") {
+  const fs::path folder = FreshFolder("busy");
+  const OutputFolderClaim holder(folder.string(), "dynaguide run", tools::RunOutputNames());
+  WriteText(folder / "run.h5.part", "the holder's log");
+  tools::RunOptions options;
+  options.scene = dg::testing::TinyPhantomDir() + "/scene.yaml";
+  options.out_dir = folder.string();
+  options.video = false;
+  options.progress = false;
+  REQUIRE_THROWS_WITH(tools::RunScene(options), Contains("in use by another dynaguide process (pid " +
+                                                         std::to_string(getpid()) + ")"));
+  REQUIRE(ReadText(folder / "run.h5.part") == "the holder's log");
+  REQUIRE_FALSE(fs::exists(folder / "run.h5"));
+  fs::remove_all(folder);
+}
+
+}  // namespace
+}  // namespace dg::io
