@@ -13,6 +13,7 @@
 #include <oneapi/tbb/flow_graph.h>
 #include <oneapi/tbb/task_arena.h>
 
+#include "pipeline/stop_request.h"
 #include "sim/log.h"
 #include "sim/error.h"
 
@@ -212,7 +213,14 @@ class StageGraph::Runner {
 
  private:
   GraphRunResult Finish() {
-    result_.complete = !Failed();
+    result_.complete = !Failed() && stopped_by_ == 0;
+    if (!Failed() && stopped_by_ != 0) {
+      result_.stop_signal = stopped_by_;
+      result_.error = "interrupted by " + SignalName(stopped_by_) +
+                      (last_consumed_frame_ < 0 ? std::string(" before the first frame")
+                                                : " at frame " + std::to_string(last_consumed_frame_) +
+                                                      " (the last frame read: every frame read reached the log)");
+    }
     result_.frames_dropped += trailing_drops_;
     for (std::int64_t k = 0; k < trailing_drops_; ++k) {
       sink_.RecordDrop(position_ - trailing_drops_ + k, NowNs());
@@ -298,6 +306,11 @@ class StageGraph::Runner {
   // The source stage: fills the packet with the next frame; false at the end.
   bool Capture(FramePacket& packet) {
     if (source_ended_.load() || Failed()) return false;
+    if (const int signal = StopSignal(); signal != 0) {  // the frames in flight still finish
+      stopped_by_ = signal;
+      source_ended_ = true;
+      return false;
+    }
     const int dropped = plan_.options_.policy == Policy::kRealtime ? PaceToVideoClock() : SkipFramesToDrop();
     // After pacing: waiting for a frame to be due is neither capture's work nor the frame's latency.
     const std::int64_t start = NowNs();
@@ -330,6 +343,7 @@ class StageGraph::Runner {
           [&] { sink_.RecordTimings({packet.timings.data(), size_t(packet.timing_count)}); });
     ++result_.frames_done;
     result_.frames_dropped += packet.dropped_before;
+    last_consumed_frame_ = packet.index;
   }
 
   template <typename Work>
@@ -389,6 +403,7 @@ class StageGraph::Runner {
   std::int64_t next_sequence_ = 0;
   std::int64_t trailing_drops_ = 0;
   std::int64_t video_clock_start_ns_ = -1;  // realtime: when the first frame was live
+  int stopped_by_ = 0;  // the signal whose stop request ended the reading
   Tick ticks_ = 0;  // written by the ticker only
 
   static constexpr std::int64_t kNone = INT64_MAX;
@@ -396,6 +411,7 @@ class StageGraph::Runner {
   std::atomic<std::int64_t> failed_sequence_{kNone};  // the first failed packet's
   std::mutex error_mutex_;
   GraphRunResult result_;  // counts written by the serial sink; error under error_mutex_
+  std::int64_t last_consumed_frame_ = -1;  // written by the serial sink
 
   flow::graph graph_;
   flow::buffer_node<Packet> free_;

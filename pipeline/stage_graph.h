@@ -82,6 +82,9 @@ struct GraphRunResult {
   std::int64_t start_steady_ns = 0;  // the run clock's zero (timings' start_ns) on the steady clock
   bool complete = false;
   std::string error;  // when not complete: which stage failed at which frame, and why
+  // The signal whose stop request (pipeline/stop_request.h) ended the run
+  // early; 0 otherwise. Then error says at which frame.
+  int stop_signal = 0;
 };
 
 // The TBB flow graph of a run:
@@ -94,7 +97,10 @@ struct GraphRunResult {
 // order before any stateful stage and before the sink. A stage that throws
 // stops the graph: the source reads no more, the frames before the failing
 // one complete and reach the sink, later ones drain through untouched, and
-// the run result names the stage and the frame. Nothing aborts.
+// the run result names the stage and the frame. Nothing aborts. A stop
+// requested by a signal (pipeline/stop_request.h) ends a run the same way
+// without a failure: the source reads no more, and every frame it read
+// reaches the sink (docs/interrupts.md).
 class StageGraph {
  public:
   // @throws dg::Error for invalid options, no source, more stages than a

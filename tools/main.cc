@@ -4,6 +4,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "pipeline/stop_request.h"
 #include "sim/error.h"
 #include "tools/commands.h"
 
@@ -26,6 +27,11 @@ int main(int argc, char** argv) {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     return app.exit(e);
+  } catch (const dg::pipeline::Interrupted& e) {
+    // `run` and `sim` stopped by SIGINT or SIGTERM, their outputs finished and
+    // marked incomplete: the exit status a shell gives a process the signal ended.
+    std::fprintf(stderr, "dynaguide: %s\n", e.what());
+    return e.exit_code();
   } catch (const dg::Error& e) {
     std::fprintf(stderr, "dynaguide: error: %s\n", e.what());
     return 1;

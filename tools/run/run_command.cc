@@ -4,6 +4,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "pipeline/stop_request.h"
 #include "sim/error.h"
 #include "tools/commands.h"
 #include "tools/run/run_job.h"
@@ -62,6 +63,7 @@ void RunRunCommand(RunArguments& args) {
     std::fputs(DescribeRunGraph(options).c_str(), stdout);
     return;
   }
+  pipeline::InstallStopOnSignals();  // a signal stops the run with its outputs finished (docs/interrupts.md)
   const RunOutcome outcome = RunScene(options);
   std::printf("dynaguide run: %s\n%s", outcome.log_path.c_str(), outcome.statistics.Text().c_str());
   if (!outcome.registration_path.empty()) {

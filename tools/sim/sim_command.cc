@@ -6,6 +6,7 @@
 #include <tbb/info.h>
 
 #include "io/sim_problem.h"
+#include "pipeline/stop_request.h"
 #include "sim/error.h"
 #include "tools/commands.h"
 #include "tools/sim/builtin_problem.h"
@@ -55,6 +56,7 @@ void RunSimCommand(const SimArguments& args) {
   options.progress = !args.quiet;
   std::printf("dynaguide sim: %s\n", problem.path.c_str());
   std::fflush(stdout);  // before the progress lines on stderr
+  pipeline::InstallStopOnSignals();  // a signal stops the stepping with its outputs finished (docs/interrupts.md)
   const SimSummary summary = RunSimProblem(problem, mesh, options);
   std::fputs(summary.Describe().c_str(), stdout);
 }
