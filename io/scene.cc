@@ -10,6 +10,7 @@
 #include "io/units.h"
 #include "io/yaml_map.h"
 #include "sim/error.h"
+#include "sim/log.h"
 
 namespace dg::io {
 namespace {
@@ -206,7 +207,12 @@ Scene ReadScene(const std::string& path) {
   scene.mesh.surface_set = mesh.String("surface_set", scene.mesh.surface_set);
   mesh.RejectUnknown();
 
-  if (top.Has("material")) scene.material = ReadMaterial(top.Map("material"));
+  if (top.Has("material")) {
+    scene.material = ReadMaterial(top.Map("material"));
+  } else if (top.Has("simulation")) {
+    Logger("io").warn("{}: no material: block; the simulation uses E = {} Pa, nu = {}, density {} kg/m^3", path,
+                      scene.material.youngs_modulus_pa, scene.material.poissons_ratio, scene.material.density_kg_m3);
+  }
   if (top.Has("preoperative")) scene.preoperative = ReadPreoperative(top.Map("preoperative"), directory);
   if (top.Has("overlays")) scene.overlays = ReadOverlays(top.Map("overlays"), directory);
   scene.calibration = File(top, "calibration", directory);

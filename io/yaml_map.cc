@@ -1,5 +1,7 @@
 #include "io/yaml_map.h"
 
+#include <set>
+
 #include "sim/error.h"
 
 namespace dg::io {
@@ -9,6 +11,17 @@ YamlMap::YamlMap(const YAML::Node& node, std::string file, std::string key_path)
   if (!node_.IsMap()) {
     throw Error("expected a mapping of keys to values", Where(),
                 "write it as 'key: value' lines (see the example in the documentation)");
+  }
+  // YAML readers disagree on a repeated key (yaml-cpp keeps the first, others
+  // the last): either way one of the two values the user wrote is dropped.
+  std::set<std::string> seen;
+  for (const auto& entry : node_) {
+    const std::string key = entry.first.Scalar();
+    if (seen.insert(key).second) continue;
+    throw Error("key '" + key + "' appears twice",
+                file_ + ":" + std::to_string(entry.first.Mark().line + 1) + " (" +
+                    (key_path_.empty() ? key : key_path_ + "." + key) + ")",
+                "keep one of the two '" + key + ":' lines");
   }
 }
 

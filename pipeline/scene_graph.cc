@@ -14,6 +14,7 @@ stages::CaptureStage::Options CaptureOptions(const io::Scene::Video& video) {
   options.left_path = video.left;
   options.right_path = video.right;
   options.fps = video.fps;
+  options.expected_frames = video.frames;
   using Layout = io::Scene::Video::Layout;
   options.layout = video.layout == Layout::kSideBySide       ? stages::CaptureStage::Layout::kSideBySide
                    : video.layout == Layout::kImageSequences ? stages::CaptureStage::Layout::kImageSequences

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 
 #include <opencv2/imgproc.hpp>
 
@@ -16,6 +17,12 @@ namespace {
 
 std::string SizeText(const cv::Size& size) {
   return std::to_string(size.width) + "x" + std::to_string(size.height);
+}
+
+std::string RateText(double fps) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.6g", fps);
+  return text;
 }
 
 // Both eyes of one recording: same frame size, same rate, lengths reconciled.
@@ -33,6 +40,24 @@ void CheckPair(const FrameSource& left, const FrameSource& right) {
   }
 }
 
+// What the caller states about the recording (a scene's video.fps and
+// video.frames) against what the file says: a contradiction is an error, as
+// a wrong rate would scale every time and a wrong count hides a cut recording.
+void CheckStatedRecording(const CaptureStage::Options& options, const FrameSource& left, std::int64_t frames) {
+  const bool video = options.layout != CaptureStage::Layout::kImageSequences;
+  if (video && options.fps > 0 && left.fps() > 0 && std::abs(options.fps - left.fps()) > 1e-3 * left.fps()) {
+    throw Error("the stated frame rate, " + RateText(options.fps) + " fps, contradicts the video's own, " +
+                    RateText(left.fps()) + " fps",
+                options.left_path, "state the video's rate (video.fps: " + RateText(left.fps()) + ")");
+  }
+  if (options.expected_frames > 0 && options.expected_frames != frames) {
+    throw Error("the recording holds " + std::to_string(frames) + " frames, not the " +
+                    std::to_string(options.expected_frames) + " stated",
+                options.left_path, "state its length (video.frames: " + std::to_string(frames) +
+                                       ") or leave video.frames out");
+  }
+}
+
 }  // namespace
 
 std::string CaptureStage::Options::Validate() const {
@@ -42,6 +67,7 @@ std::string CaptureStage::Options::Validate() const {
   }
   if (layout != Layout::kSideBySide && right_path.empty()) return "no right input given";
   if (!(fps >= 0) || !std::isfinite(fps)) return "fps must be positive, or 0 for the container's";
+  if (expected_frames < 0) return "expected_frames must be positive, or 0 when not stated";
   if (layout == Layout::kImageSequences && fps == 0) return "an image sequence needs its frame rate (fps)";
   return "";
 }
@@ -71,6 +97,7 @@ CaptureStage::CaptureStage(const Options& options) : options_(options) {
       Logger("stages").warn("capture: {}", truncation_);
     }
   }
+  CheckStatedRecording(options, *left_, frame_count_);
   fps_ = options.fps > 0 ? options.fps : left_->fps();
   container_times_ = options.fps == 0;
   if (!(fps_ > 0)) {

@@ -32,16 +32,21 @@ class CaptureStage {
     Layout layout = Layout::kTwoFiles;
     std::string left_path, right_path;  // kSideBySide: left_path only
     // Frame rate: required for image sequences; for videos 0 takes the
-    // container's, and a positive value overrides it (times become index / fps).
+    // container's, and a positive value must agree with it (within 0.1%): a
+    // rate that contradicts the file would scale every time in the run.
     double fps = 0;
+    // Frames the caller expects the recording to hold (a scene's
+    // video.frames); 0: not stated. Any other count is an error.
+    std::int64_t expected_frames = 0;
 
     // Empty when valid; otherwise which field is wrong and why.
     std::string Validate() const;
   };
 
   // Opens the inputs and checks that they agree.
-  // @throws dg::Error for invalid options, a missing or unreadable input, or
-  // inputs of different frame size or frame rate (naming both and their values).
+  // @throws dg::Error for invalid options, a missing or unreadable input,
+  // inputs of different frame size or frame rate (naming both and their
+  // values), or a stated rate or frame count the file contradicts.
   explicit CaptureStage(const Options& options);
 
   // The next frame into `frame`, reusing its images' buffers (see

@@ -92,5 +92,15 @@ TEST_CASE("bad input: a FIFO, a device and a directory are refused before they a
   REQUIRE(FirstBinaryByte("a\tb\r\nc", 6) == 6);
 }
 
+// yaml-cpp keeps the first of two equal keys and drops the second silently.
+TEST_CASE("bad input: a key given twice in a scene is an error naming the second line", "[faults][unit]") {
+  const BadInputs inputs;
+  const fs::path scene = inputs.folder / "twice.yaml";
+  std::ofstream(scene) << "name: x\nmesh:\n  units: mm\n  file: mesh.msh\n  units: m\n";
+  REQUIRE_THROWS_WITH(ReadScene(scene.string()), Contains("key 'units' appears twice") &&
+                                                     Contains(scene.string() + ":5 (mesh.units)") &&
+                                                     Contains("keep one of the two 'units:' lines"));
+}
+
 }  // namespace
 }  // namespace dg::io

@@ -172,6 +172,14 @@ TEST_CASE("capture: inputs that disagree are rejected or truncated, saying so", 
   REQUIRE_THAT(ErrorMessage({Layout::kTwoFiles, not_video, small, 0}),
                Catch::Contains("cannot open the video") && Catch::Contains(not_video));
   REQUIRE_THAT(ErrorMessage({Layout::kImageSequences, small, large, 0}), Catch::Contains("frame rate"));
+
+  // What a scene states about the recording must agree with the file.
+  REQUIRE_THAT(ErrorMessage({Layout::kTwoFiles, small, small, 50}),
+               Catch::Contains("stated frame rate, 50 fps, contradicts the video's own, 25 fps") &&
+                   Catch::Contains("video.fps: 25"));
+  REQUIRE_THAT(ErrorMessage({Layout::kTwoFiles, small, small, 25, 4}),
+               Catch::Contains("holds 5 frames, not the 4 stated") && Catch::Contains(small));
+  REQUIRE(CaptureStage({Layout::kTwoFiles, small, small, 25, 5}).frame_count() == 5);
 }
 
 }  // namespace

@@ -188,6 +188,9 @@ TEST_CASE("run: a failing stage leaves a readable log marked incomplete", "[tool
   const std::string videos = "  left: video/left.avi\n  right: video/right.avi\n";
   text.replace(text.find(videos), videos.size(),
                "  layout: image_sequences\n  left: sequence/left_%02d.png\n  right: sequence/right_%02d.png\n");
+  const std::string length = "  frames: 30\n";  // the sequence holds the recording's first 12
+  REQUIRE(text.find(length) != std::string::npos);
+  text.replace(text.find(length), length.size(), "  frames: 12\n");
   std::ofstream(dir + "/scene_sequence.yaml") << text;
 
   RunOptions options;
