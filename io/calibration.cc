@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <tuple>
 
@@ -194,6 +196,31 @@ void WriteStereoCalibration(const std::string& path, const StereoCalibration& ca
   storage.release();
 }
 
+namespace {
+
+// The stereo baseline |T| in metres. A stereo endoscope's is 3 to 10 mm and
+// a bench rig's a few centimetres; OpenCV gives T in the unit of the
+// calibration target's square size, so a target measured in millimetres
+// gives a baseline of "5 metres", which every depth in the run would follow.
+void CheckBaseline(const CalibrationFile& file, const Eigen::MatrixXd& T) {
+  constexpr double kLargestBaseline_m = 0.25;
+  const double baseline = T.norm();
+  if (!(baseline > 0) || !std::isfinite(baseline)) {
+    file.Fail("T", "is zero or not finite: the two cameras would be at one place",
+              "give the right camera's translation from the stereo calibration (cv::stereoCalibrate's T)");
+  }
+  if (baseline > kLargestBaseline_m) {
+    char what[160];
+    std::snprintf(what, sizeof what,
+                  "gives a baseline of %.4g m, not a stereo endoscope's (3-10 mm): T is probably in millimetres",
+                  baseline);
+    file.Fail("T", what,
+              "give T in metres (divide it by 1000), or calibrate again with the target's square size in metres");
+  }
+}
+
+}  // namespace
+
 StereoCalibration ReadStereoCalibration(const std::string& path) {
   const CalibrationFile file(path);
   StereoCalibration calibration;
@@ -203,6 +230,7 @@ StereoCalibration ReadStereoCalibration(const std::string& path) {
   calibration.R = file.Matrix("R", 3, 3);
   CheckRotation(file, calibration.R);
   calibration.T_m = file.Matrix("T", 3, 1);
+  CheckBaseline(file, calibration.T_m);
   // E and F follow from the rest and are recomputed, not read.
   const std::array<const char*, 5> rectification_keys = {"R1", "R2", "P1", "P2", "Q"};
   const bool any = std::any_of(rectification_keys.begin(), rectification_keys.end(),

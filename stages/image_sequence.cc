@@ -25,6 +25,12 @@ std::string RegexEscape(const std::string& text) {
 
 std::vector<std::string> NumberedFiles(const fs::path& directory, const std::string& name_pattern,
                                        const std::smatch& field, const std::string& pattern) {
+  // No file system names files with more digits than a long holds.
+  constexpr size_t kWidestField = 18;
+  if (field[2].length() > 2 || (field[2].length() && std::stoul(field[2].str()) > kWidestField)) {
+    throw Error("the number field " + field.str() + " is wider than " + std::to_string(kWidestField) + " digits",
+                pattern, "give the width the files use, e.g. left_%04d.png for left_0000.png");
+  }
   const std::string digits = field[2].length() ? "(\\d{" + field[2].str() + "})" : "(\\d+)";
   const std::regex name_regex(RegexEscape(field.prefix()) + digits + RegexEscape(field.suffix()));
   std::map<long, std::string> by_number;

@@ -1,0 +1,80 @@
+// Values a user gets wrong that used to pass unnoticed or end in an
+// "unexpected error": each is refused with what, where and a fix.
+#include <unistd.h>
+
+#include <filesystem>
+#include <string>
+
+#include <catch2/catch.hpp>
+
+#include "io/calibration.h"
+#include "io/scene.h"
+#include "sim/error.h"
+#include "stages/image_sequence.h"
+#include "tests/support/tiny_phantom.h"
+#include "tools/run/run_job.h"
+
+namespace dg {
+namespace {
+
+namespace fs = std::filesystem;
+using Catch::Matchers::Contains;
+
+fs::path FreshFolder(const std::string& name) {
+  const fs::path folder = fs::temp_directory_path() / ("dg_faults_" + name + "_" + std::to_string(getpid()));
+  fs::remove_all(folder);
+  fs::create_directories(folder);
+  return folder;
+}
+
+// The tiny phantom's calibration (baseline a few millimetres, T in metres)
+// written again with T in millimetres, as a target measured in millimetres
+// makes OpenCV give it, and with T zero.
+TEST_CASE("bad values: a calibration's T in millimetres or zero is refused, naming the unit", "[faults][unit]") {
+  const fs::path folder = FreshFolder("calibration");
+  const io::Scene scene = io::ReadScene(dg::testing::TinyPhantomDir() + "/scene.yaml");
+  io::StereoCalibration calibration = io::ReadStereoCalibration(scene.calibration);
+  const double baseline_m = calibration.T_m.norm();
+  REQUIRE(baseline_m > 1e-3);
+  REQUIRE(baseline_m < 0.05);
+
+  calibration.T_m *= 1000;
+  const std::string in_mm = (folder / "in_mm.yaml").string();
+  io::WriteStereoCalibration(in_mm, calibration);
+  REQUIRE_THROWS_WITH(io::ReadStereoCalibration(in_mm), Contains("T is probably in millimetres") &&
+                                                            Contains(in_mm + ": key T") &&
+                                                            Contains("divide it by 1000"));
+  calibration.T_m.setZero();
+  const std::string zero = (folder / "zero.yaml").string();
+  io::WriteStereoCalibration(zero, calibration);
+  REQUIRE_THROWS_WITH(io::ReadStereoCalibration(zero), Contains("T: is zero or not finite"));
+  fs::remove_all(folder);
+}
+
+TEST_CASE("bad values: an image sequence's number field wider than a file name's", "[faults][unit]") {
+  const fs::path folder = FreshFolder("sequence");
+  const std::string pattern = (folder / "left_%0999999d.png").string();
+  REQUIRE_THROWS_WITH(stages::ListImageSequence(pattern),
+                      Contains("the number field %0999999d is wider than 18 digits") && Contains(pattern));
+  fs::remove_all(folder);
+}
+
+TEST_CASE("bad values: snapshots of frames the run does not read are refused before it starts",
+          "[faults][integration]") {
+  tools::RunOptions options;
+  options.scene = dg::testing::TinyPhantomDir() + "/scene.yaml";
+  options.out_dir = FreshFolder("snapshots").string();
+  options.video = false;
+  options.progress = false;
+  options.graph.end_frame = 10;
+  options.snapshots = {5, 10};
+  REQUIRE_THROWS_WITH(tools::RunScene(options), Contains("--snapshots names frame 10, outside the frames this run "
+                                                         "reads (0 to 9)"));
+  options.snapshots = {-1};
+  REQUIRE_THROWS_WITH(tools::RunScene(options), Contains("names frame -1"));
+  REQUIRE(fs::is_empty(options.out_dir));  // refused before anything was written
+  fs::remove_all(options.out_dir);
+}
+
+}  // namespace
+}  // namespace dg
