@@ -5,6 +5,7 @@
 
 #include "io/gmsh_reader.h"
 #include "pipeline/overlay_stages.h"
+#include "pipeline/scene_geometry.h"
 #include "sim/coupled_simulation.h"
 #include "sim/error.h"
 #include "sim/log.h"
@@ -54,6 +55,7 @@ std::shared_ptr<const SimulationSetup> LoadSimulationSetup(const io::Scene& scen
   if (!scene.simulation) throw Error("the scene has no simulation", scene.path, "add a simulation: block");
   auto setup = std::make_shared<SimulationSetup>();
   setup->mesh = io::ReadGmsh(scene.mesh.file, scene.mesh.metres_per_unit);
+  CheckSceneGeometry(scene, setup->mesh);
   setup->fixed_nodes = NodeSet(setup->mesh, scene.mesh.fixed_set, scene.path);
   setup->surface_nodes = NodeSet(setup->mesh, scene.mesh.surface_set, scene.path);
   setup->material = scene.material;

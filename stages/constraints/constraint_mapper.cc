@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 
 #include "sim/error.h"
@@ -75,9 +76,11 @@ NodeTargets ConstraintMapper::Process(const std::vector<TrackedPoint>& points,
 
 void ConstraintMapper::TieFeatures(const std::vector<TrackedPoint>& points) {
   std::vector<bool> node_tied(count_.size(), false);
+  double nearest_m = std::numeric_limits<double>::infinity();
   for (const TrackedPoint& point : points) {
     const Eigen::Vector3d x_S = T_S_C_ * point.xyz_C_m;
     const NearestPointGrid::Hit hit = grid_.Nearest(x_S);
+    nearest_m = std::min(nearest_m, hit.distance_m);
     if (!(hit.distance_m <= options_.max_tie_distance_m)) {
       ++untied_;
       continue;
@@ -87,6 +90,18 @@ void ConstraintMapper::TieFeatures(const std::vector<TrackedPoint>& points) {
     node_tied[hit.id] = true;
   }
   tied_nodes_ = static_cast<int>(std::count(node_tied.begin(), node_tied.end(), true));
+  if (ties_.empty()) {
+    // Nothing would constrain the surface for the whole run: a run of a frozen
+    // or free-floating mesh, reported as a success, is a wrong answer.
+    char what[200];
+    std::snprintf(what, sizeof what,
+                  "no tracked feature lies within %.3g mm of the mesh's free surface (%zu features, the nearest "
+                  "%.4g mm away)",
+                  1e3 * options_.max_tie_distance_m, points.size(), 1e3 * nearest_m);
+    throw Error(what, "constraint mapper, first registered frame",
+                "check the registration, the mesh's unit (mesh: {units: ...}) and the surface set; a mesh far "
+                "larger or smaller than the tissue in the video is in the wrong unit");
+  }
   FindNeighbours();
 }
 

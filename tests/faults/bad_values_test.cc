@@ -3,11 +3,14 @@
 #include <unistd.h>
 
 #include <filesystem>
+#include <fstream>
 #include <string>
 
 #include <catch2/catch.hpp>
 
 #include "io/calibration.h"
+#include "io/gmsh_mesher.h"
+#include "io/gmsh_reader.h"
 #include "io/scene.h"
 #include "sim/error.h"
 #include "stages/image_sequence.h"
@@ -73,6 +76,33 @@ TEST_CASE("bad values: snapshots of frames the run does not read are refused bef
   options.snapshots = {-1};
   REQUIRE_THROWS_WITH(tools::RunScene(options), Contains("names frame -1"));
   REQUIRE(fs::is_empty(options.out_dir));  // refused before anything was written
+  fs::remove_all(options.out_dir);
+}
+
+// The tiny phantom's mesh written in millimetres, its scene left saying
+// nothing of the unit (metres): the run stops at scene load, naming the unit,
+// instead of simulating a 1000 times larger organ to an exit code 0.
+TEST_CASE("bad values: a mesh in millimetres read as metres is refused at scene load, naming the unit",
+          "[faults][integration]") {
+  const std::string dir = dg::testing::TinyPhantomDir();
+  const io::Scene scene = io::ReadScene(dir + "/scene.yaml");
+  sim::TetMesh mesh = io::ReadGmsh(scene.mesh.file, scene.mesh.metres_per_unit);
+  mesh.X_m *= 1000;
+  io::WriteMsh(mesh, dir + "/mesh_in_mm.msh", 41);
+  std::string text = scene.text;
+  const size_t at = text.find("mesh.msh");
+  REQUIRE(at != std::string::npos);
+  text.replace(at, 8, "mesh_in_mm.msh");
+  std::ofstream(dir + "/scene_mesh_in_mm.yaml") << text;
+
+  tools::RunOptions options;
+  options.scene = dir + "/scene_mesh_in_mm.yaml";
+  options.out_dir = FreshFolder("mesh_in_mm").string();
+  options.video = false;
+  options.progress = false;
+  REQUIRE_THROWS_WITH(tools::RunScene(options), Contains("coordinates are probably in millimetres") &&
+                                                    Contains("mesh_in_mm.msh") && Contains("units: mm"));
+  REQUIRE(fs::is_empty(options.out_dir));
   fs::remove_all(options.out_dir);
 }
 

@@ -218,6 +218,11 @@ TEST_CASE("constraint mapper: bad set-up is an error with a reason", "[unit]") {
   ConstraintMapper mapper({3e-3}, s.X_S, s.first_u_S, s.surface, s.fixed, s.T_C_S);
   const Eigen::Matrix3Xd too_few = Eigen::Matrix3Xd::Zero(3, 2);
   REQUIRE_THROWS_WITH(mapper.Process({}, &too_few), Contains("prediction has 2 nodes"));
+  // Features nowhere near the surface (as with a mesh in the wrong unit): no tie is an error, not a free run.
+  const Eigen::Vector3d far_off = s.X_S.col(2) + s.first_u_S.col(2) + Eigen::Vector3d(0, 0, 0.01);
+  REQUIRE_THROWS_WITH(mapper.Process({Feature(1, s, far_off)}),
+                      Contains("no tracked feature lies within 3 mm of the mesh's free surface (1 features, the "
+                               "nearest 10 mm away)"));
 }
 
 }  // namespace
