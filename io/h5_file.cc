@@ -9,6 +9,7 @@
 
 #include "io/h5_handle.h"
 #include "sim/error.h"
+#include "sim/log.h"
 
 namespace dg::io {
 namespace {
@@ -19,6 +20,9 @@ constexpr const char* kWriteFix = h5::kWriteFix;
 
 using h5::Checked;
 using h5::Handle;
+using h5::kMetadataBytes;
+using h5::Quiet;
+using h5::ReserveSpace;
 
 std::string Where(const std::string& path, const std::string& object) {
   return path + ":" + object;
@@ -72,7 +76,10 @@ Handle Untimed(hid_t property_class, const std::string& where) {
   return properties;
 }
 
+// Every read and most writes pass here first, so it also silences HDF5's
+// error printing on the calling thread (h5::Quiet).
 bool Exists(hid_t file, const std::string& object) {
+  Quiet();
   if (object == "/") return true;
   // H5Lexists fails, rather than answering false, when a parent is missing,
   // so the path is walked one link at a time.
@@ -186,6 +193,7 @@ Handle CreateDataset(hid_t file, const std::string& dataset, hid_t type, const H
 void WriteNumbers(hid_t file, const std::string& path, const std::string& dataset, hid_t type,
                   const void* data, const H5Shape& shape) {
   const std::string where = Where(path, dataset);
+  ReserveSpace(file, NumValues(shape) * H5Tget_size(type) + kMetadataBytes, where);
   const Handle set = CreateDataset(file, dataset, type, shape, where);
   Checked(Data{set.get(), false}.Write(type, data), "write the dataset", where);
 }
@@ -195,6 +203,7 @@ void WriteNumbers(hid_t file, const std::string& path, const std::string& datase
 // ---------------------------------------------------------------- H5Writer
 
 H5Writer::H5Writer(const std::string& path) : path_(path) {
+  Quiet();
   // Checked here so that the common mistake gets a plain message, not HDF5's error stack.
   const std::filesystem::path directory = std::filesystem::path(path).parent_path();
   if (!directory.empty() && !std::filesystem::is_directory(directory)) {
@@ -206,7 +215,10 @@ H5Writer::H5Writer(const std::string& path) : path_(path) {
 }
 
 H5Writer::~H5Writer() {
-  if (file_ >= 0) H5Fclose(file_);
+  if (file_ < 0) return;
+  if (const std::string problem = h5::CloseFile(file_, path_); !problem.empty()) {
+    Logger("io").error("{}", problem);
+  }
 }
 
 H5Writer::H5Writer(H5Writer&& other) noexcept
@@ -241,7 +253,9 @@ void H5Writer::WriteMatrix(const std::string& dataset, const Eigen::MatrixXd& ma
 }
 
 void H5Writer::WriteString(const std::string& dataset, const std::string& text) {
+  Quiet();
   const std::string where = Where(path_, dataset);
+  ReserveSpace(file_, text.size() + kMetadataBytes, where);
   const Handle type = StringType(where);
   const Handle set = CreateDataset(file_, dataset, type.get(), {}, where);
   WriteText(Data{set.get(), false}, text, where);
@@ -251,6 +265,7 @@ void H5Writer::CreateGroup(const std::string& group) {
   const std::string where = Where(path_, group);
   RequireAbsolute(group, where);
   if (Exists(file_, group)) return;
+  ReserveSpace(file_, kMetadataBytes, where);
   const Handle links = CreatingParents(where);
   const Handle creation = Untimed(H5P_GROUP_CREATE, where);
   Handle created(Checked(H5Gcreate2(file_, group.c_str(), links.get(), creation.get(), H5P_DEFAULT),
@@ -260,15 +275,16 @@ void H5Writer::CreateGroup(const std::string& group) {
 
 namespace {
 
-// Creates (or replaces) an attribute of `object` and writes it through `write`.
+// Creates (or replaces) an attribute of `object`, of `bytes` bytes, and writes it through `write`.
 void SetAttribute(hid_t file, const std::string& path, const std::string& object,
-                  const std::string& name, hid_t type,
+                  const std::string& name, hid_t type, size_t bytes,
                   const std::function<herr_t(const Data&)>& write) {
   const std::string where = AttributeWhere(path, object, name);
   if (!Exists(file, object)) {
     throw Error("the object of the attribute does not exist", where,
                 "write the dataset or create the group first");
   }
+  ReserveSpace(file, bytes + kMetadataBytes, where);
   Handle owner(Checked(H5Oopen(file, object.c_str(), H5P_DEFAULT), "open the object", where),
                H5Oclose);
   if (Checked(H5Aexists(owner.get(), name.c_str()), "look up the attribute", where) > 0) {
@@ -285,27 +301,31 @@ void SetAttribute(hid_t file, const std::string& path, const std::string& object
 }  // namespace
 
 void H5Writer::WriteAttribute(const std::string& object, const std::string& name, double value) {
-  SetAttribute(file_, path_, object, name, H5T_NATIVE_DOUBLE,
+  SetAttribute(file_, path_, object, name, H5T_NATIVE_DOUBLE, sizeof value,
                [&](const Data& data) { return data.Write(H5T_NATIVE_DOUBLE, &value); });
 }
 
 void H5Writer::WriteAttribute(const std::string& object, const std::string& name,
                               std::int64_t value) {
-  SetAttribute(file_, path_, object, name, H5T_NATIVE_INT64,
+  SetAttribute(file_, path_, object, name, H5T_NATIVE_INT64, sizeof value,
                [&](const Data& data) { return data.Write(H5T_NATIVE_INT64, &value); });
 }
 
 void H5Writer::WriteAttribute(const std::string& object, const std::string& name,
                               const std::string& text) {
+  Quiet();
   const std::string where = AttributeWhere(path_, object, name);
   const Handle type = StringType(where);
-  SetAttribute(file_, path_, object, name, type.get(), [&](const Data& data) {
+  SetAttribute(file_, path_, object, name, type.get(), text.size(), [&](const Data& data) {
     WriteText(data, text, where);
     return herr_t{0};
   });
 }
 
-void H5Writer::Flush() { Checked(H5Fflush(file_, H5F_SCOPE_GLOBAL), "flush the file", path_); }
+void H5Writer::Flush() {
+  Quiet();
+  Checked(H5Fflush(file_, H5F_SCOPE_GLOBAL), "flush the file", path_);
+}
 
 // ---------------------------------------------------------------- H5Reader
 
@@ -324,6 +344,7 @@ Handle OpenDataset(hid_t file, const std::string& path, const std::string& datas
 }  // namespace
 
 H5Reader::H5Reader(const std::string& path) : path_(path) {
+  Quiet();
   if (!std::filesystem::is_regular_file(path)) {
     throw Error("no such HDF5 file", path, "check the path");
   }
@@ -332,6 +353,7 @@ H5Reader::H5Reader(const std::string& path) : path_(path) {
 }
 
 H5Reader::~H5Reader() {
+  Quiet();
   if (file_ >= 0) H5Fclose(file_);
 }
 

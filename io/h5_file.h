@@ -19,6 +19,12 @@ using H5Shape = std::vector<std::size_t>;
 // intermediate groups are created on the way. Data is row-major: the last
 // dimension varies fastest, so a column-major Eigen::Matrix3Xd of N points is
 // the shape {N, 3}. Not thread-safe; the file is closed by the destructor.
+//
+// Each write first allocates the disk space it may need, so a full disk or a
+// file size limit fails that write with a dg::Error (the operating system's
+// reason, "free space ..." as the fix) before HDF5 touches the file: the file
+// keeps everything written before and still opens. HDF5's own error printing
+// is silenced; its innermost cause is in the dg::Error instead.
 class H5Writer {
  public:
   // Creates the file, replacing any file of that name.

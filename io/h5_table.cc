@@ -1,5 +1,6 @@
 #include "io/h5_table.h"
 
+#include <algorithm>
 #include <cstring>
 #include <exception>
 #include <set>
@@ -14,6 +15,13 @@ namespace {
 
 using h5::Checked;
 using h5::Handle;
+using h5::kMetadataBytes;
+using h5::Quiet;
+using h5::ReserveSpace;
+
+// What HDF5 may add per column and per chunk beside the values: an object
+// header or a chunk's B-tree entry.
+constexpr hsize_t kColumnMetadataBytes = 4096;
 
 hid_t NativeType(H5Type type) {
   switch (type) {
@@ -82,6 +90,29 @@ hid_t CreateColumn(hid_t group, const H5Column& column, const H5Table::Options& 
                  "create column '" + column.name + "'", where);
 }
 
+// The disk space that writing `rows` rows after `written` may take: every
+// chunk they touch is rewritten whole at a new place in the file, with its
+// index entry. Uncompressed, a chunk takes its full size. Deflated, its
+// values take at most 1% more than raw (zlib's bound is 0.03% and a few
+// bytes a block), and the zeros that fill its unwritten rows at most 1% of
+// the chunk (a deflate match codes 258 bytes in under 16 bits); when that
+// would exceed the full size, HDF5 stores the chunk uncompressed.
+hsize_t BytesToWrite(const std::vector<H5Column>& columns, const H5Table::Options& options, std::size_t written,
+                     std::size_t rows) {
+  const std::size_t chunk_rows = options.chunk_rows, end = written + rows;
+  hsize_t bytes = kMetadataBytes;
+  for (std::size_t first = written / chunk_rows * chunk_rows; first < end; first += chunk_rows) {
+    const hsize_t present = std::min(end, first + chunk_rows) - first;
+    for (const H5Column& column : columns) {
+      const hsize_t row_bytes = column.width * SizeOf(column.type);
+      const hsize_t full = chunk_rows * row_bytes;
+      const hsize_t deflated = present * row_bytes * 101 / 100 + full / 100 + 1024;
+      bytes += (options.deflate_level > 0 ? std::min(full, deflated) : full) + kColumnMetadataBytes;
+    }
+  }
+  return bytes;
+}
+
 }  // namespace
 
 std::string H5Table::Options::Validate() const {
@@ -91,7 +122,7 @@ std::string H5Table::Options::Validate() const {
 }
 
 H5Table::H5Table(H5Writer& file, const std::string& group, std::vector<H5Column> columns, Options options)
-    : where_(file.path() + ":" + group), columns_(std::move(columns)), options_(options) {
+    : path_(file.path()), where_(file.path() + ":" + group), columns_(std::move(columns)), options_(options) {
   if (const std::string problem = options_.Validate(); !problem.empty()) {
     throw Error("invalid table options: " + problem, where_, "pass valid H5Table::Options");
   }
@@ -109,6 +140,7 @@ H5Table::H5Table(H5Writer& file, const std::string& group, std::vector<H5Column>
   file.Flush();
   file_ = Checked(H5Fopen(file.path().c_str(), H5F_ACC_RDWR, H5P_DEFAULT), "reopen the file", where_);
   try {
+    ReserveSpace(file_, kMetadataBytes + columns_.size() * kColumnMetadataBytes, where_);
     Handle link_properties(Checked(H5Pcreate(H5P_LINK_CREATE), "create properties", where_), H5Pclose);
     Checked(H5Pset_create_intermediate_group(link_properties.get(), 1), "set properties", where_);
     bool exists = false;
@@ -133,26 +165,32 @@ H5Table::H5Table(H5Writer& file, const std::string& group, std::vector<H5Column>
 }
 
 H5Table::H5Table(H5Table&& other) noexcept
-    : where_(std::move(other.where_)),
+    : path_(std::move(other.path_)),
+      where_(std::move(other.where_)),
       columns_(std::move(other.columns_)),
       options_(other.options_),
       file_(std::exchange(other.file_, -1)),
       datasets_(std::move(other.datasets_)),
       buffers_(std::move(other.buffers_)),
       written_rows_(other.written_rows_),
-      buffered_rows_(std::exchange(other.buffered_rows_, 0)) {
+      buffered_rows_(std::exchange(other.buffered_rows_, 0)),
+      failed_(other.failed_) {
   other.datasets_.clear();
 }
 
 H5Table::~H5Table() {
   if (file_ < 0) return;
-  try {
-    Flush();
-  } catch (const std::exception& error) {
-    Logger("io").error("table rows lost on close: {}", error.what());
+  Quiet();
+  // A table whose write failed does not try again: its error was thrown then.
+  if (!failed_) {
+    try {
+      Flush();
+    } catch (const std::exception& error) {
+      Logger("io").error("table rows lost on close: {}", error.what());
+    }
   }
   for (hid_t dataset : datasets_) H5Dclose(dataset);
-  H5Fclose(file_);
+  if (const std::string problem = h5::CloseFile(file_, path_); !problem.empty()) Logger("io").error("{}", problem);
 }
 
 void H5Table::Append(std::size_t rows, std::span<const H5Values> columns) {
@@ -175,10 +213,10 @@ void H5Table::Append(std::size_t rows, std::span<const H5Values> columns) {
     buffers_[c].insert(buffers_[c].end(), bytes, bytes + columns[c].count() * SizeOf(columns_[c].type));
   }
   buffered_rows_ += rows;
-  if (buffered_rows_ >= options_.chunk_rows) WriteBuffered();
+  if (buffered_rows_ >= options_.chunk_rows) Flush();
 }
 
-void H5Table::WriteBuffered() {
+void H5Table::WriteColumns() {
   if (buffered_rows_ == 0) return;
   for (std::size_t c = 0; c < columns_.size(); ++c) {
     const H5Column& column = columns_[c];
@@ -202,9 +240,43 @@ void H5Table::WriteBuffered() {
   buffered_rows_ = 0;
 }
 
+void H5Table::StopWriting() {
+  failed_ = true;
+  for (std::vector<std::byte>& buffer : buffers_) buffer.clear();
+  buffered_rows_ = 0;
+}
+
 void H5Table::Flush() {
-  WriteBuffered();
-  Checked(H5Fflush(file_, H5F_SCOPE_GLOBAL), "flush the file", where_);
+  H5Table* self = this;
+  FlushTogether({&self, 1});
+}
+
+void H5Table::FlushTogether(std::span<H5Table* const> tables) {
+  DG_CHECK(!tables.empty());
+  const H5Table& first = *tables.front();
+  const std::string& where = tables.size() == 1 ? first.where_ : first.path_;
+  Quiet();
+  hsize_t bytes = 0;
+  for (const H5Table* table : tables) {
+    DG_CHECK(table->path_ == first.path_);
+    if (table->failed_) {
+      throw Error("the table stopped writing after an earlier write failed", table->where_,
+                  "see the first error; the rows flushed before it are in the file");
+    }
+    if (table->buffered_rows_ > 0) {
+      bytes += BytesToWrite(table->columns_, table->options_, table->written_rows_, table->buffered_rows_);
+    }
+  }
+  try {
+    ReserveSpace(first.file_, bytes, where);
+    for (H5Table* table : tables) table->WriteColumns();
+    // Once, after all the tables: HDF5 places the chunks now, inside the space
+    // just reserved (a flush may trim the file to its allocated end).
+    Checked(H5Fflush(first.file_, H5F_SCOPE_GLOBAL), "flush the file", where);
+  } catch (...) {
+    for (H5Table* table : tables) table->failed_ = true;
+    throw;
+  }
 }
 
 }  // namespace dg::io

@@ -66,7 +66,10 @@ class H5Values {
 // the rest and flushes the file, so a process that dies afterwards leaves a
 // readable file with every row appended before the Flush (the columns of a
 // row not yet flushed are lost together, except when the process dies inside
-// Flush itself: then a reader takes the shortest column's length).
+// Flush itself: then a reader takes the shortest column's length). Every
+// write allocates its disk space first (h5::ReserveSpace) and flushes the
+// file after, so a full disk fails the write before HDF5 touches the file:
+// the rows written before stay readable, and the table writes no more.
 //
 // The table opens the H5Writer's file a second time (HDF5 shares one open
 // file between the two identifiers), so the writer goes on writing other
@@ -103,16 +106,26 @@ class H5Table {
   void AppendRow(std::initializer_list<H5Values> columns) { Append(1, columns); }
 
   // Writes the buffered rows and flushes the whole file to disk.
-  // @throws dg::Error naming the file and group when writing fails.
+  // @throws dg::Error naming the file and group when writing fails (then
+  // and after: the table writes no more, and its destructor drops its rows).
   void Flush();
+  // Flushes several tables of one file together: the space for all their
+  // rows is reserved first, so that on a full disk every table stays at its
+  // previous flush (none is a flush ahead of the others).
+  // @throws dg::Error as Flush(); then none of the tables writes again.
+  static void FlushTogether(std::span<H5Table* const> tables);
+  // Drops the rows not yet written: the table writes no more, and its
+  // destructor does not flush (for a log whose disk is full).
+  void StopWriting();
 
   // Rows appended so far (written or buffered).
   std::size_t rows() const { return written_rows_ + buffered_rows_; }
   const std::vector<H5Column>& columns() const { return columns_; }
 
  private:
-  void WriteBuffered();
+  void WriteColumns();  // the buffered rows, without a flush
 
+  std::string path_;   // the file's
   std::string where_;  // file:group, for errors
   std::vector<H5Column> columns_;
   Options options_;
@@ -120,6 +133,7 @@ class H5Table {
   std::vector<std::int64_t> datasets_;  // one per column
   std::vector<std::vector<std::byte>> buffers_;
   std::size_t written_rows_ = 0, buffered_rows_ = 0;
+  bool failed_ = false;
 };
 
 }  // namespace dg::io

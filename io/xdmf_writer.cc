@@ -1,7 +1,9 @@
 #include "io/xdmf_writer.h"
 
+#include <cerrno>
 #include <charconv>
 #include <cmath>
+#include <cstring>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -19,6 +21,9 @@ constexpr const char* kFix = h5::kWriteFix;
 
 using h5::Checked;
 using h5::Handle;
+using h5::kMetadataBytes;
+using h5::Quiet;
+using h5::ReserveSpace;
 
 // A matrix with one column per node or element is, in memory, the row-major
 // (rows x components) array XDMF reads; a scalar field is stored 1-D.
@@ -204,15 +209,22 @@ void XdmfTimeSeriesWriter::Impl::WriteXmf() const {
   }
   xml << "  </Domain>\n</Xdmf>\n";
   const std::string temporary = xmf_path + ".tmp";
+  std::error_code error;
   {
     std::ofstream out(temporary);
     out << xml.str();
     out.close();
-    if (!out) throw Error("cannot write the XDMF description", temporary, kFix);
+    if (!out) {
+      const int reason = errno;  // the stream's last failed write, e.g. ENOSPC
+      std::filesystem::remove(temporary, error);  // the previous description stays whole
+      throw Error("cannot write the XDMF description: " + std::string(std::strerror(reason)), temporary,
+                  h5::OutOfSpace(reason) ? h5::kSpaceFix : kFix);
+    }
   }
-  std::error_code error;
   std::filesystem::rename(temporary, xmf_path, error);
   if (error) {
+    std::error_code ignored;
+    std::filesystem::remove(temporary, ignored);
     throw Error("cannot rename to the XDMF description: " + error.message(), xmf_path, kFix);
   }
 }
@@ -254,6 +266,7 @@ XdmfTimeSeriesWriter::XdmfTimeSeriesWriter(const std::string& path, const sim::T
   impl.h5_reference = XmlEscape(std::filesystem::path(impl.h5_path).filename().string());
   impl.num_nodes = mesh.num_nodes();
   impl.num_tets = mesh.num_tets();
+  Quiet();
   // Checked here so that the common mistake gets a plain message, not HDF5's error stack.
   const std::filesystem::path directory = std::filesystem::path(impl.h5_path).parent_path();
   if (!directory.empty() && !std::filesystem::is_directory(directory)) {
@@ -263,6 +276,8 @@ XdmfTimeSeriesWriter::XdmfTimeSeriesWriter(const std::string& path, const sim::T
   impl.file = Checked(H5Fcreate(impl.h5_path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT),
                       "create the file", impl.h5_path);
   try {
+    const hsize_t mesh_bytes = impl.num_nodes * 3 * sizeof(double) + impl.num_tets * 4 * sizeof(int);
+    ReserveSpace(impl.file, mesh_bytes + 4 * kMetadataBytes, impl.h5_path);
     WriteRootAttribute(impl.file, "complete", 0, impl.h5_path);
     Handle group(CreateGroup(impl.file, "mesh", impl.h5_path), H5Gclose);
     WriteDataset(group.get(), "geometry_m", H5T_NATIVE_DOUBLE, mesh.X_m.data(), impl.num_nodes, 3,
@@ -281,6 +296,7 @@ XdmfTimeSeriesWriter::XdmfTimeSeriesWriter(const std::string& path, const sim::T
 
 XdmfTimeSeriesWriter::~XdmfTimeSeriesWriter() {
   if (impl_->closed) return;
+  Quiet();
   try {
     Close(false);
     Logger("io").warn("{} closed before the run finished: marked complete=0", impl_->h5_path);
@@ -308,6 +324,13 @@ void XdmfTimeSeriesWriter::Append(double t_s, const Eigen::Matrix3Xd& displaceme
   char group_name[32];
   std::snprintf(group_name, sizeof(group_name), "/steps/%06zu", impl.steps.size());
   Step step{t_s, {}};
+  Quiet();
+  hsize_t values = displacement_m.size();
+  for (const auto& [name, data] : fields.point_data) values += data.size();
+  for (const auto& [name, data] : fields.cell_data) values += data.size();
+  // The step's datasets, its groups and a new chunk of /time_s at most.
+  const hsize_t metadata = (4 + fields.point_data.size() + fields.cell_data.size()) * kMetadataBytes;
+  ReserveSpace(impl.file, values * sizeof(double) + metadata, impl.h5_path + ", " + step_name);
   {
     Handle group(CreateGroup(impl.file, group_name, impl.h5_path), H5Gclose);
     step.attributes = impl.WriteStep(group.get(), group_name, displacement_m, fields);
@@ -322,9 +345,19 @@ void XdmfTimeSeriesWriter::Close(bool complete) {
   Impl& impl = *impl_;
   if (impl.closed) return;
   impl.closed = true;
-  const Handle file(impl.file, H5Fclose);  // closed whatever happens below
-  WriteRootAttribute(impl.file, "complete", complete ? 1 : 0, impl.h5_path);
-  Checked(H5Fflush(impl.file, H5F_SCOPE_GLOBAL), "flush the file", impl.h5_path);
+  Quiet();
+  // The attribute exists since the constructor: it is rewritten in place,
+  // which needs no new space on a full disk.
+  try {
+    WriteRootAttribute(impl.file, "complete", complete ? 1 : 0, impl.h5_path);
+    Checked(H5Fflush(impl.file, H5F_SCOPE_GLOBAL), "flush the file", impl.h5_path);
+  } catch (...) {
+    h5::CloseFile(impl.file, impl.h5_path);  // closed whatever happened
+    throw;
+  }
+  if (const std::string problem = h5::CloseFile(impl.file, impl.h5_path); !problem.empty()) {
+    throw Error(problem, impl.h5_path, kFix);
+  }
 }
 
 int XdmfTimeSeriesWriter::num_steps() const { return static_cast<int>(impl_->steps.size()); }
