@@ -18,6 +18,8 @@ void OverlayLog::Consume(const FramePacket& packet) {
 }
 
 void OverlayLog::Finish(std::int64_t start_steady_ns) {
+  // A log that could not be written (a full disk) takes no more: its error says why.
+  if (log_.write_failed()) return;
   using io::H5Type;
   io::H5Table& table = log_.AddTable("/overlay_timings", {{"frame", H5Type::kInt64},
                                                            {"overlay", H5Type::kInt32},
