@@ -163,4 +163,12 @@ StabilityReport EstimateStability(const TetMesh& mesh, const Material& material,
   return report;
 }
 
+double DefaultStabilitySafety(double poissons_ratio) {
+  constexpr double kCompressible = 0.9, kIncompressible = 0.65;
+  const double from = std::log10(1 - 2 * 0.45), to = std::log10(1 - 2 * 0.499);
+  const double at = std::log10(std::max(1 - 2 * poissons_ratio, 1e-12));
+  const double t = std::clamp((at - from) / (to - from), 0.0, 1.0);
+  return kCompressible + t * (kIncompressible - kCompressible);
+}
+
 }  // namespace dg::sim

@@ -25,6 +25,12 @@ std::string Milliseconds(double seconds) {
   return text;
 }
 
+std::string Fraction(double value) {
+  char text[16];
+  std::snprintf(text, sizeof text, "%.2f", value);
+  return text;
+}
+
 std::string StepWhere(long long step, double time_s) {
   char text[64];
   std::snprintf(text, sizeof text, "step %lld, t = %.6g s", step, time_s);
@@ -40,7 +46,9 @@ std::string SolverOptions::Validate() const {
   }
   if (damping_per_s * dt_s >= 2.0) return "alpha * dt must be below 2 for the update to be stable";
   if (!gravity_m_s2.allFinite()) return "gravity must be finite";
-  if (!(stability_safety > 0 && stability_safety <= 1)) return "stability_safety must lie in (0, 1]";
+  if (!(stability_safety >= 0 && stability_safety <= 1)) {
+    return "stability_safety must lie in (0, 1], or be 0 for the material's default";
+  }
   if (threads < 0) return "threads must be 0 (the process's parallelism) or positive";
   if (energy_window_steps < 1 || !(energy_growth_limit > 1)) {
     return "energy_window_steps must be >= 1 and energy_growth_limit > 1";
@@ -99,12 +107,14 @@ TledSolver<T>::TledSolver(std::shared_ptr<const TledModel<T>> model, BoundaryCon
                        conditions_.prescribed_dofs.end());
     stability_ = EstimateStability(model_->mesh(), model_->material(), constrained);
   }
-  const double safe_dt = options_.stability_safety * stability_.dt_critical_s;
+  safety_ = options_.stability_safety > 0 ? options_.stability_safety
+                                          : DefaultStabilitySafety(model_->material().poissons_ratio);
+  const double safe_dt = safety_ * stability_.dt_critical_s;
   if (options_.dt_s > safe_dt) {
     switch (options_.time_step_policy) {
       case TimeStepPolicy::kRefuse:
         throw Error("time step " + Milliseconds(options_.dt_s) + " exceeds " +
-                        std::to_string(options_.stability_safety) + " x the " + stability_.Describe(),
+                        Fraction(safety_) + " x the " + stability_.Describe(),
                     model_->mesh().source,
                     "use dt <= " + Milliseconds(safe_dt) +
                         ", a coarser or better-shaped mesh near the limiting node, or automatic substepping");
@@ -338,7 +348,7 @@ void TledSolver<T>::CheckStep() {
                                        std::to_string(options_.energy_window_steps) + "-step windows"
                                  : "non-finite displacement or velocity";
     throw Error(what, where,
-                "reduce dt below " + Milliseconds(options_.stability_safety * stability_.dt_critical_s) +
+                "reduce dt below " + Milliseconds(safety_ * stability_.dt_critical_s) +
                     " (" + stability_.Describe() + "), or check the loads for NaN");
   }
   if (!(min_J_ > 0)) ThrowInversion();
@@ -376,6 +386,13 @@ void TledSolver<T>::ThrowInversion() const {
   std::snprintf(where, sizeof where, "element %d (J = %.3g) at (%.2f, %.2f, %.2f) mm, %s", worst, worst_J,
                 centroid_mm.x(), centroid_mm.y(), centroid_mm.z(),
                 StepWhere(internal_steps_ - 1, time_s() - internal_dt_s()).c_str());
+  const double dt = internal_dt_s(), safe_dt = safety_ * stability_.dt_critical_s;
+  if (dt > safe_dt) {
+    // Run unchecked above the limit: the inversion is the scheme diverging, not the load.
+    throw Error("inverted element: the time step " + Milliseconds(dt) + " is above the stability limit (" +
+                    Fraction(safety_) + " x the " + stability_.Describe() + "), and the solution diverged",
+                where, "reduce dt below " + Milliseconds(safe_dt) + ", or let the solver substep (time_step_policy: substep)");
+  }
   throw Error("inverted element", where,
               "the imposed deformation crushes the mesh: reduce the prescribed displacement or load, refine "
               "the mesh there, or check the boundary conditions");

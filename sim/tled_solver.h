@@ -27,7 +27,10 @@ struct SolverOptions {
   double damping_per_s = 75.0;     // alpha of C = alpha M (paper section 2.3)
   Eigen::Vector3d gravity_m_s2 = Eigen::Vector3d::Zero();
   TimeStepPolicy time_step_policy = TimeStepPolicy::kRefuse;
-  double stability_safety = 0.9;   // allowed fraction of the estimated dt_cr
+  // Allowed fraction of the estimated dt_cr; 0: DefaultStabilitySafety() of
+  // the material's Poisson's ratio (0.9 for compressible tissue, down to 0.65
+  // for nearly incompressible).
+  double stability_safety = 0;
   // Threads stepping the solver (its StepTeam's size); 0: DefaultTeamSize(),
   // the process's TBB parallelism. 1 where solvers already run side by side.
   int threads = 0;
@@ -107,6 +110,8 @@ class TledSolver {
   const StabilityReport& stability() const { return stability_; }
   const SolverOptions& options() const { return options_; }
   int substeps_per_step() const { return substeps_; }
+  // The fraction of dt_cr a step may take (SolverOptions::stability_safety resolved).
+  double stability_safety() const { return safety_; }
   int threads() const { return team_->size(); }
   double internal_dt_s() const { return options_.dt_s / substeps_; }
   long long steps_taken() const { return internal_steps_; }
@@ -169,6 +174,7 @@ class TledSolver {
   BoundaryConditions conditions_;
   SolverOptions options_;
   StabilityReport stability_;
+  double safety_ = 0;  // the allowed fraction of dt_cr: the option's, or the material's default
   std::shared_ptr<StepTeam> team_;
   ChunkHomes homes_;  // each worker's element and node chunks (PartitionChunks)
   int substeps_ = 1;

@@ -257,9 +257,26 @@ TEST_CASE("stability: guard refuses or substeps an unstable step", "[sim][unit]"
   StiffCube cube;
   REQUIRE_THROWS_WITH(cube.Solver(1.1, TimeStepPolicy::kRefuse),
                       Catch::Contains("critical time step") && Catch::Contains("per-element bound"));
+  // nu = 0.499: the default safety is 0.65 of dt_cr, so 2.5 dt_cr takes ceil(2.5 / 0.65) = 4 substeps.
   TledSolver<double> substepped = cube.Solver(2.5, TimeStepPolicy::kSubstep);
-  REQUIRE(substepped.substeps_per_step() == 3);
+  REQUIRE(substepped.stability_safety() == Approx(0.65));
+  REQUIRE(substepped.substeps_per_step() == 4);
   REQUIRE_NOTHROW(substepped.Advance(1000, {}));
+  // Unchecked above the limit, the divergence is blamed on the step, whichever detector sees it first.
+  TledSolver<double> unchecked = cube.Solver(3.0, TimeStepPolicy::kUnchecked);
+  REQUIRE_THROWS_WITH(unchecked.Advance(1000, {}), Catch::Contains("reduce dt below"));
+}
+
+// The default safety against the stability study's findings: every cell ran
+// below 0.9 dt_cr for nu <= 0.45; at nu = 0.49 one in 40 failed at 0.82; at
+// nu = 0.499 all failed from 0.7 and all ran below it.
+TEST_CASE("stability: the default safety fraction follows Poisson's ratio", "[sim][unit]") {
+  REQUIRE(DefaultStabilitySafety(0.3) == 0.9);
+  REQUIRE(DefaultStabilitySafety(0.45) == Approx(0.9));
+  REQUIRE(DefaultStabilitySafety(0.49) == Approx(0.797).margin(1e-3));
+  REQUIRE(DefaultStabilitySafety(0.499) == Approx(0.65));
+  REQUIRE(DefaultStabilitySafety(0.4999) == 0.65);
+  REQUIRE(DefaultStabilitySafety(0.5) == 0.65);
 }
 
 // Driving one node through its element's opposite face is reported as an

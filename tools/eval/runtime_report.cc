@@ -19,7 +19,7 @@ namespace fs = std::filesystem;
 
 std::string Status(const PointResult& p) {
   if (p.plan.refused) {
-    return Printed("refused by the guard (dt > %.2f x dt_cr %.3f ms)", sim::SolverOptions{}.stability_safety,
+    return Printed("refused by the guard (dt > %.2f x dt_cr %.3f ms)", p.plan.safety,
                    p.plan.dt_critical_s * 1e3);
   }
   if (!p.error.empty()) return "failed: " + p.error;

@@ -64,7 +64,8 @@ PointPlan PlanPoint(const io::Scene& phantom, const SweepPoint& point) {
     for (int axis = 0; axis < 3; ++axis) fixed_dofs.push_back(3 * node + axis);
   }
   plan.dt_critical_s = sim::EstimateStability(mesh, scene.material, fixed_dofs).dt_critical_s;
-  plan.refused = point.dt_s > sim::SolverOptions{}.stability_safety * plan.dt_critical_s;
+  plan.safety = sim::DefaultStabilitySafety(scene.material.poissons_ratio);
+  plan.refused = point.dt_s > plan.safety * plan.dt_critical_s;
   return plan;
 }
 
@@ -247,7 +248,7 @@ RuntimeResult RunRuntimeSweep(const RuntimeOptions& options) {
     WritePointFile(dir, scene.name, plan, 0, "");
     if (plan.refused && options.progress) {
       std::fprintf(stderr, "eval runtime: %s refused by the guard: dt %.2f ms > %.2f x dt_cr %.3f ms (not run)\n",
-                   point.Name().c_str(), point.dt_s * 1e3, sim::SolverOptions{}.stability_safety,
+                   point.Name().c_str(), point.dt_s * 1e3, plan.safety,
                    plan.dt_critical_s * 1e3);
     }
   }

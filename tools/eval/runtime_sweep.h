@@ -56,6 +56,7 @@ struct PointPlan {
   std::string scene;  // the point's scene file (beside the phantom's)
   int tets = 0, nodes = 0;
   double dt_critical_s = 0;
+  double safety = 0;     // the solver's allowed fraction of dt_critical_s for the scene's material
   bool refused = false;  // dt above the solver's safety fraction of dt_critical_s: not run
 };
 
