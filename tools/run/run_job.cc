@@ -9,6 +9,7 @@
 #include <tbb/global_control.h>
 #include <tbb/info.h>
 
+#include "io/output_folder.h"
 #include "io/registration_file.h"
 #include "io/run_log.h"
 #include "io/scene.h"
@@ -17,6 +18,7 @@
 #include "pipeline/overlay_log.h"
 #include "pipeline/run_log_sink.h"
 #include "pipeline/simulation_log.h"
+#include "pipeline/stop_request.h"
 #include "stages/register/fiducial_motion.h"
 #include "sim/error.h"
 #include "sim/log.h"
@@ -52,7 +54,24 @@ std::int64_t FramesInRange(const pipeline::GraphOptions& graph, int recording_fr
   return std::max<std::int64_t>(0, end - graph.first_frame);
 }
 
+// Every snapshot names a frame the run reads, or none would be written for it.
+void CheckSnapshots(const RunOptions& options, int recording_frames) {
+  const std::int64_t end = options.graph.first_frame + FramesInRange(options.graph, recording_frames);
+  for (std::int64_t frame : options.snapshots) {
+    if (frame < options.graph.first_frame || frame >= end) {
+      throw Error("--snapshots names frame " + std::to_string(frame) + ", outside the frames this run reads (" +
+                      std::to_string(options.graph.first_frame) + " to " + std::to_string(end - 1) + ")",
+                  "--snapshots", "name frames from " + std::to_string(options.graph.first_frame) + " to " +
+                                     std::to_string(end - 1));
+    }
+  }
+}
+
 }  // namespace
+
+std::vector<std::string> RunOutputNames() {
+  return {"run.h5", "run.h5.part", "annotated.avi", "registration.yaml", "composite_*.png"};
+}
 
 std::string DescribeRunGraph(const RunOptions& options) {
   const io::Scene scene = io::ReadScene(ScenePath(options));
@@ -65,10 +84,16 @@ RunOutcome RunScene(const RunOptions& options) {
   const io::Scene scene = io::ReadScene(ScenePath(options));
   pipeline::SceneGraph built = BuildRunGraph(scene, options);
   const pipeline::PacketSource& source = built.graph->source();
+  CheckSnapshots(options, source.frame_count());
 
-  std::error_code error;
-  fs::create_directories(options.out_dir, error);
-  if (error) throw Error("cannot create the output directory: " + error.message(), options.out_dir, "check the path");
+  std::vector<std::string> inputs;
+  if (scene.registration && !scene.registration->file.empty()) inputs.push_back(scene.registration->file);
+  const io::OutputFolderClaim claim(options.out_dir, "dynaguide run", RunOutputNames(), inputs);
+  if (!claim.removed().empty()) {
+    std::string names;
+    for (const std::string& name : claim.removed()) names += (names.empty() ? "" : ", ") + name;
+    Logger("run").info("removed what an earlier run left in {}: {}", options.out_dir, names);
+  }
   RunOutcome outcome;
   outcome.log_path = (fs::path(options.out_dir) / "run.h5").string();
   io::RunLog log(outcome.log_path, scene.text,
@@ -146,6 +171,11 @@ RunOutcome RunScene(const RunOptions& options) {
                        "(register over fewer cycles with registration.cycles, or give registration.file)");
   }
   log.Finish(result.complete, result.error);
+  if (!result.complete && result.stop_signal != 0) {
+    throw pipeline::Interrupted(result.stop_signal, result.error, outcome.log_path,
+                                "the frames read are in " + options.out_dir +
+                                    " (marked complete = 0); run again for the whole recording");
+  }
   if (!result.complete) {
     throw Error(result.error, outcome.log_path,
                 "the frames before the failure are in " + options.out_dir + " (marked complete = 0)");

@@ -34,15 +34,21 @@ struct RunOutcome {
   std::int64_t simulated_frames = 0;  // frames the FEM stage advanced to (0 without a simulation)
 };
 
+// What a run writes into out_dir, as names and one-`*` patterns: a run
+// removes what an earlier run left under these names before it writes.
+std::vector<std::string> RunOutputNames();
+
 // The graph a run would build, as text (`dynaguide run --print-graph`).
 std::string DescribeRunGraph(const RunOptions& options);
 
 // `dynaguide run`: streams the scene's recording through its graph, writing
 // the HDF5 run log, the annotated video and (when the run registered the
-// scan itself) registration.yaml into out_dir.
+// scan itself) registration.yaml into out_dir, which it holds for the run
+// (io::OutputFolderClaim: a second process writing there is refused).
 // @throws dg::Error for a bad scene or options before the run, and, after the
 // outputs are flushed and marked incomplete, when a stage failed (naming the
 // stage and the frame).
+// @throws pipeline::Interrupted, after the same, when a signal stopped the run.
 RunOutcome RunScene(const RunOptions& options);
 
 }  // namespace dg::tools

@@ -1,15 +1,20 @@
 #include "tools/sim/sim_runner.h"
 
+#include <cerrno>
 #include <chrono>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <memory>
+#include <sstream>
 
 #include "io/vtu_writer.h"
 #include "io/xdmf_writer.h"
+#include "pipeline/stop_request.h"
 #include "sim/element_measures.h"
 #include "sim/error.h"
+#include "sim/log.h"
 #include "sim/tled_solver.h"
 #include "tools/json_text.h"
 #include "tools/progress.h"
@@ -25,8 +30,10 @@ io::MeshFields OutputFields(const sim::TetMesh& mesh, const sim::Material& mater
   return fields;
 }
 
+// Written under a temporary name and renamed, so that summary.json is either
+// absent or whole: a full disk leaves no empty or cut file.
 void WriteSummaryJson(const std::string& path, const SimSummary& s, const std::string& status) {
-  std::ofstream out(path);
+  std::ostringstream out;
   out << "{\n  \"status\": " << JsonQuoted(status) << ",\n  \"nodes\": " << s.nodes << ",\n  \"tets\": " << s.tets
       << ",\n  \"precision\": " << JsonQuoted(s.precision) << ",\n  \"steps\": " << s.steps
       << ",\n  \"substeps_per_step\": " << s.substeps_per_step << ",\n  \"dt_s\": " << s.dt_s
@@ -41,6 +48,30 @@ void WriteSummaryJson(const std::string& path, const SimSummary& s, const std::s
         << "]";
   }
   out << "}\n}\n";
+  const std::string temporary = path + ".tmp";
+  std::ofstream file(temporary);
+  file << out.str();
+  file.close();
+  std::error_code error;
+  if (file) std::filesystem::rename(temporary, path, error);
+  if (!file || error) {
+    const std::string reason = file ? error.message() : std::strerror(errno);
+    std::filesystem::remove(temporary, error);
+    throw Error("cannot write the summary: " + reason, path,
+                "free space on the output's file system or choose another --out");
+  }
+}
+
+// On the way out of a failed run: the outputs are closed and marked
+// incomplete as far as the disk allows, and the run's own error goes on.
+void FinishIncomplete(io::XdmfTimeSeriesWriter* series, const std::string& summary_path, const SimSummary& summary,
+                      const std::string& status) {
+  try {
+    if (series) series->Close(false);
+    if (!summary_path.empty()) WriteSummaryJson(summary_path, summary, status);
+  } catch (const Error& e) {
+    Logger("sim").warn("the outputs could not all be marked incomplete: {}", e.what());
+  }
 }
 
 template <typename T>
@@ -74,7 +105,7 @@ SimSummary Run(const io::SimProblem& problem, const sim::TetMesh& mesh, const Si
   std::vector<double> targets(dofs.conditions.prescribed_dofs.size());
   Progress progress("sim", static_cast<double>(total_steps), options.progress);
   double wall_s = 0;
-  std::string status = "complete";
+  std::string stopped_status = "incomplete: error";  // summary.json's status when the stepping stops early
   try {
     write_output();
     for (long long step = 0; step < total_steps;) {
@@ -96,11 +127,19 @@ SimSummary Run(const io::SimProblem& problem, const sim::TetMesh& mesh, const Si
       std::snprintf(rate, sizeof rate, "t = %.3f s  %.1f M tet-steps/s", solver.time_s(),
                     mesh.num_tets() * double(solver.steps_taken()) / wall_s / 1e6);
       progress.Update(static_cast<double>(step), rate);
+      // A stop asked for by a signal (pipeline/stop_request.h), checked at an output step: the outputs end there.
+      if (const int signal = pipeline::StopSignal(); signal != 0 && step < total_steps) {
+        const std::string what = "interrupted by " + pipeline::SignalName(signal) + " at step " + std::to_string(step);
+        stopped_status = "incomplete: " + what;
+        throw pipeline::Interrupted(signal, what, options.out_dir,
+                                    "the steps up to it are in the outputs (marked incomplete); run again for the "
+                                    "whole duration");
+      }
     }
   } catch (const Error&) {
     progress.Finish();
-    if (series) series->Close(false);
-    if (options.write_output) WriteSummaryJson(options.out_dir + "/summary.json", summary, "incomplete: error");
+    FinishIncomplete(series.get(), options.write_output ? options.out_dir + "/summary.json" : "", summary,
+                     stopped_status);
     throw;
   }
   progress.Finish();
