@@ -69,6 +69,26 @@ TrackedPoint Feature(std::int64_t id, const Scene& s, const Eigen::Vector3d& x_S
   return point;
 }
 
+// Node 0 the mount, every other node free surface, at rest; the camera 8 cm away.
+Scene MountAndSurface(const Eigen::Matrix3Xd& X_S) {
+  Scene s;
+  s.X_S = X_S;
+  s.first_u_S = Eigen::Matrix3Xd::Zero(3, X_S.cols());
+  for (int a = 1; a < X_S.cols(); ++a) s.surface.push_back(a);
+  s.fixed = {0};
+  s.T_C_S = Eigen::Isometry3d(Eigen::Translation3d(0, 0, 0.08));
+  return s;
+}
+
+// A mapper with the default options whose first frame ties feature a to surface node a.
+ConstraintMapper TieEveryNode(const Scene& s) {
+  ConstraintMapper mapper({}, s.X_S, s.first_u_S, s.surface, s.fixed, s.T_C_S);
+  std::vector<TrackedPoint> first;
+  for (int a : s.surface) first.push_back(Feature(a, s, s.X_S.col(a)));
+  mapper.Process(first);
+  return mapper;
+}
+
 // Ties at the first frame to the nearest free surface node in the first
 // frame's geometry; targets are the node's first displacement plus the mean
 // of its features' displacements seen now; lost features drop out, a node
@@ -116,17 +136,10 @@ TEST_CASE("constraint mapper: persistent ties, mean displacement, lost features 
 // with the median and leaves no feature out but a 6 mm outlier.
 TEST_CASE("constraint mapper: features departing from the prediction are gated", "[unit]") {
   const int n = 21;
-  Scene s;
-  s.X_S = Eigen::Matrix3Xd::Zero(3, n);
-  for (int a = 0; a < n; ++a) s.X_S(0, a) = 0.01 * a;
-  s.first_u_S = Eigen::Matrix3Xd::Zero(3, n);
-  for (int a = 1; a < n; ++a) s.surface.push_back(a);
-  s.fixed = {0};
-  s.T_C_S = Eigen::Isometry3d(Eigen::Translation3d(0, 0, 0.08));
-  ConstraintMapper mapper({}, s.X_S, s.first_u_S, s.surface, s.fixed, s.T_C_S);
-  std::vector<TrackedPoint> first;
-  for (int a = 1; a < n; ++a) first.push_back(Feature(a, s, s.X_S.col(a)));
-  mapper.Process(first);
+  Eigen::Matrix3Xd X_S = Eigen::Matrix3Xd::Zero(3, n);
+  for (int a = 0; a < n; ++a) X_S(0, a) = 0.01 * a;
+  const Scene s = MountAndSurface(X_S);
+  ConstraintMapper mapper = TieEveryNode(s);
 
   // The tissue moves by `motion`; each feature sees it with up to 0.2 mm of noise, feature 7 with 3 mm more.
   const Eigen::Vector3d motion(1e-3, 2e-3, -0.5e-3);
@@ -162,18 +175,11 @@ TEST_CASE("constraint mapper: features departing from the prediction are gated",
 // a prediction and without one, and no other feature is.
 TEST_CASE("constraint mapper: features departing from their neighbours are gated", "[unit]") {
   const int side = 9, n = side * side + 1;
-  Scene s;
-  s.X_S = Eigen::Matrix3Xd::Zero(3, n);
-  s.X_S.col(0) = Eigen::Vector3d(0, 0, -0.01);  // the mount
-  for (int a = 1; a < n; ++a) s.X_S.col(a) = 1.5e-3 * Eigen::Vector3d((a - 1) % side, (a - 1) / side, 0);
-  s.first_u_S = Eigen::Matrix3Xd::Zero(3, n);
-  for (int a = 1; a < n; ++a) s.surface.push_back(a);
-  s.fixed = {0};
-  s.T_C_S = Eigen::Isometry3d(Eigen::Translation3d(0, 0, 0.08));
-  ConstraintMapper mapper({}, s.X_S, s.first_u_S, s.surface, s.fixed, s.T_C_S);
-  std::vector<TrackedPoint> first;
-  for (int a = 1; a < n; ++a) first.push_back(Feature(a, s, s.X_S.col(a)));
-  mapper.Process(first);
+  Eigen::Matrix3Xd X_S(3, n);
+  X_S.col(0) = Eigen::Vector3d(0, 0, -0.01);
+  for (int a = 1; a < n; ++a) X_S.col(a) = 1.5e-3 * Eigen::Vector3d((a - 1) % side, (a - 1) / side, 0);
+  const Scene s = MountAndSurface(X_S);
+  ConstraintMapper mapper = TieEveryNode(s);
 
   const std::vector<int> pulled = {41, 42, 50};  // adjacent, in the middle of the patch
   std::mt19937 rng(7);

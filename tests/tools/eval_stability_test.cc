@@ -11,6 +11,7 @@
 
 #include <catch2/catch.hpp>
 
+#include "sim/stability.h"
 #include "tools/eval/stability_report.h"
 #include "tools/eval/stability_study.h"
 
@@ -179,7 +180,7 @@ TEST_CASE("eval stability: the quick grid's outcomes and its CSV", "[integration
   for (const CellResult& c : result.cells) by_name[c.spec.Name()] = &c;
   for (const CellResult& c : result.cells) {
     INFO(c.spec.Name() << ": " << OutcomeName(c.outcome) << " " << c.message);
-    const double safe = 0.9 * c.dt_critical_s;
+    const double safe = sim::DefaultStabilitySafety(c.spec.poissons_ratio) * c.dt_critical_s;
     const bool ran_to_end = c.outcome == CellOutcome::kStable || c.outcome == CellOutcome::kSubstepped;
     CHECK(ran_to_end == c.message.empty());
     if (ran_to_end) {
