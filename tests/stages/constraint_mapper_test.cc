@@ -167,7 +167,7 @@ TEST_CASE("constraint mapper: features departing from the prediction are gated",
   REQUIRE(mapper.Process(frame(6e-3), &predicted).gated_features == 1);
 }
 
-// The neighbour gate: a patch of tissue 12 x 12 mm, features 1.5 mm apart,
+// The neighbour gate: a 12 x 12 mm patch of tissue, features 1.5 mm apart,
 // stretched by 5% (neighbouring features move apart by less than 0.1 mm).
 // Three adjacent features pull 2 mm away from the features around them. The
 // scan's prediction is off everywhere by 1.5 mm, which widens the prediction
