@@ -40,6 +40,10 @@ OutputFolderClaim::OutputFolderClaim(const std::string& folder, const std::strin
                                      const std::vector<std::string>& outputs,
                                      const std::vector<std::string>& inputs) {
   std::error_code error;
+  if (fs::exists(folder, error) && !fs::is_directory(folder, error)) {
+    throw Error("the output path is a file, not a folder", folder,
+                "give " + command + " a folder as --out (it is created when missing)");
+  }
   fs::create_directories(folder, error);
   if (error) throw Error("cannot create the output folder: " + error.message(), folder, "check the path and its permissions");
   const std::string lock_path = (fs::path(folder) / ".dynaguide.lock").string();

@@ -48,6 +48,12 @@ TEST_CASE("output folder: a second claim is refused naming the holder's pid, and
                             Contains("give dynaguide run another --out"));
   }
   REQUIRE_NOTHROW(OutputFolderClaim(folder, "dynaguide run", {"run.h5"}));
+  // --out naming a file: a named error, and the file is left alone.
+  const std::string file = folder + "/notes.txt";
+  WriteText(file, "mine");
+  REQUIRE_THROWS_WITH(OutputFolderClaim(file, "dynaguide sim", {"sim.h5"}),
+                      Contains("the output path is a file, not a folder") && Contains("give dynaguide sim a folder"));
+  REQUIRE(ReadText(file) == "mine");
   fs::remove_all(folder);
 }
 

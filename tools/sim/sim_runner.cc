@@ -7,8 +7,10 @@
 #include <filesystem>
 #include <fstream>
 #include <memory>
+#include <optional>
 #include <sstream>
 
+#include "io/output_folder.h"
 #include "io/vtu_writer.h"
 #include "io/xdmf_writer.h"
 #include "pipeline/stop_request.h"
@@ -90,8 +92,9 @@ SimSummary Run(const io::SimProblem& problem, const sim::TetMesh& mesh, const Si
   summary.stability = solver.stability();
 
   std::unique_ptr<io::XdmfTimeSeriesWriter> series;
+  std::optional<io::OutputFolderClaim> claim;  // held while the outputs are written
   if (options.write_output) {
-    std::filesystem::create_directories(options.out_dir);
+    claim.emplace(options.out_dir, "dynaguide sim", SimOutputNames());
     series = std::make_unique<io::XdmfTimeSeriesWriter>(options.out_dir + "/sim", mesh);
   }
   auto write_output = [&] {
@@ -196,6 +199,10 @@ std::string SimSummary::Describe() const {
 SimSummary RunSimProblem(const io::SimProblem& problem, const sim::TetMesh& mesh, const SimRunOptions& options) {
   return problem.precision == io::Precision::kFloat ? Run<float>(problem, mesh, options)
                                                      : Run<double>(problem, mesh, options);
+}
+
+std::vector<std::string> SimOutputNames() {
+  return {"sim.xmf", "sim.xmf.tmp", "sim.h5", "final.vtu", "summary.json", "summary.json.tmp"};
 }
 
 }  // namespace dg::tools

@@ -45,4 +45,9 @@ struct SimSummary {
 // readable and are marked incomplete, and the error is rethrown.
 SimSummary RunSimProblem(const io::SimProblem& problem, const sim::TetMesh& mesh, const SimRunOptions& options);
 
+// What a run writes into out_dir (names and their temporaries): a run holds
+// the folder (io::OutputFolderClaim) and removes what an earlier run left
+// under these names before it writes.
+std::vector<std::string> SimOutputNames();
+
 }  // namespace dg::tools
