@@ -147,6 +147,7 @@ Scene::Simulation ReadSimulation(const YamlMap& map) {
   simulation.damping_per_s = map.Number("damping_per_s", simulation.damping_per_s);
   simulation.motion_smoothing = map.Number("motion_smoothing", simulation.motion_smoothing);
   simulation.concurrent = map.Boolean("concurrent", simulation.concurrent);
+  simulation.inverse_interval_steps = map.Integer("inverse_interval_steps", simulation.inverse_interval_steps);
   simulation.precision = map.String("precision", simulation.precision);
   if (simulation.precision != "float" && simulation.precision != "double") {
     throw Error("unknown precision '" + simulation.precision + "'", map.Where("precision"),
@@ -164,6 +165,12 @@ Scene::Simulation ReadSimulation(const YamlMap& map) {
   }
   if (!(simulation.motion_smoothing >= 0)) {
     throw Error("'motion_smoothing' must not be negative", map.Where("motion_smoothing"), "0 interpolates the scan");
+  }
+  if (simulation.inverse_interval_steps < 1 || simulation.inverse_interval_steps > sim::kMaxInverseIntervalSteps) {
+    throw Error("'inverse_interval_steps' must lie in [1, " + std::to_string(sim::kMaxInverseIntervalSteps) + "]",
+                map.Where("inverse_interval_steps"),
+                "1 recovers the forces at every step; the default " +
+                    std::to_string(sim::kDefaultInverseIntervalSteps) + " blends them in between");
   }
   if (simulation.sampled_nodes < 0) {
     throw Error("'sampled_nodes' must not be negative", map.Where("sampled_nodes"), "0 logs no node positions");

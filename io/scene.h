@@ -4,6 +4,7 @@
 #include <string>
 #include <vector>
 
+#include "sim/inverse_interval.h"
 #include "sim/material.h"
 
 namespace dg::io {
@@ -81,6 +82,7 @@ struct Scene {
     double damping_per_s = 75;      // the paper's alpha
     double motion_smoothing = 0;    // the motion model's smoothing weight (0: interpolating)
     bool concurrent = true;         // inverse beside forward
+    int inverse_interval_steps = sim::kDefaultInverseIntervalSteps;  // forward steps per level of recovered forces
     std::string precision = "float";  // float (as the paper's GPU solver) or double
     int sampled_nodes = 256;        // nodes logged per frame in /sim
     double max_tie_distance_m = 3e-3;  // features farther from every free surface node are not tied

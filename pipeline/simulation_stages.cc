@@ -144,6 +144,7 @@ void FemAdapter::Process(FramePacket& packet) {
     options.phase_at_first_frame = setup_->PhaseAt(*packet.registration, packet.t_s);
     options.sampled_nodes = setup_->options.sampled_nodes;
     options.concurrent = setup_->options.concurrent;
+    options.inverse_interval_steps = setup_->options.inverse_interval_steps;
     options.double_precision = setup_->options.precision == "double";
     options.launch_helper = helpers_->launcher();
     fem_ = std::make_unique<stages::FemStage>(options, setup_->mesh, setup_->material, setup_->motion,

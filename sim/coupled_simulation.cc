@@ -30,6 +30,9 @@ std::string CoupledOptions::Validate() const {
            "choose dt below the stable limit";
   }
   if (!std::isfinite(phase_at_start)) return "phase_at_start must be finite";
+  if (inverse_interval_steps < 1 || inverse_interval_steps > kMaxInverseIntervalSteps) {
+    return "inverse_interval_steps must lie in [1, " + std::to_string(kMaxInverseIntervalSteps) + "]";
+  }
   return {};
 }
 
@@ -85,7 +88,8 @@ CoupledSimulation<T>::CoupledSimulation(std::shared_ptr<const TledModel<T>> mode
       motion_->Evaluate<T>(phase, std::span<T>(u));
       resolution.CheckGeometry(u, "the motion model at phase " + std::to_string(phase));
     }
-    inverse_ = std::make_unique<InverseSimulation<T>>(model_, motion_, options_.solver, options_.phase_at_start);
+    inverse_ = std::make_unique<InverseSimulation<T>>(model_, motion_, options_.solver, options_.phase_at_start,
+                                                      options_.inverse_interval_steps);
   }
 }
 
@@ -128,12 +132,24 @@ void CoupledSimulation<T>::MotionAtStep(long long step, std::span<T> out) const 
 }
 
 template <typename T>
+ElementLoads<T> CoupledSimulation<T>::LoadsAtStep(long long step) const {
+  const int k = options_.inverse_interval_steps;
+  const long long level = step / k;
+  const int within = static_cast<int>(step % k);
+  return {inverse_->weights(level).data(), inverse_->weights(level + 1).data(), T(within) / T(k)};
+}
+
+template <typename T>
 void CoupledSimulation<T>::AdvanceCoupled(int steps) {
   TledSolver<T>& solver = *solver_;
   InverseSimulation<T>& inverse = *inverse_;
-  DG_CHECK(inverse.level() == steps_);
+  const int k = options_.inverse_interval_steps;
+  // Step n needs levels n / k and n / k + 1; the step that starts a level's
+  // interval computes the level after them.
+  auto runs_inverse = [k](long long step) { return step % k == 0; };
+  DG_CHECK(inverse.level() == steps_ / k + (runs_inverse(steps_) ? 1 : 2));
   DG_CHECK(solver.node_chunks() == inverse.node_chunks());
-  solver.SetElementLoads(inverse.weights().data());
+  solver.SetElementLoads(LoadsAtStep(steps_));
   const TledModel<T>& model = *model_;
   // Both sides share the forward solver's home ranges; the interleaved element
   // pass has two chunks (one a side) for each of the model's.
@@ -145,11 +161,15 @@ void CoupledSimulation<T>::AdvanceCoupled(int steps) {
   // the same nodes), then both sides' nodes (one walk over each node's
   // incidences gathers both sides' forces, the sums GatherNodalForce forms).
   // Sequential: the forward step's two passes, then the inverse side's.
+  // A step without inverse work has the forward step's passes only (and two
+  // empty ones when sequential).
   const int passes_per_step = options_.concurrent ? 2 : 4;
+  const long long first_step = steps_;
   auto pass = [&](int worker, int p) {
     const int phase = p % passes_per_step;
     const double fraction_end = double(p / passes_per_step + 1) / steps;
-    if (options_.concurrent && phase == 0) {
+    const bool with_inverse = runs_inverse(first_step + p / passes_per_step);
+    if (options_.concurrent && phase == 0 && with_inverse) {
       team_->ForEachChunk(worker, both_sides_homes, [&](int c) {
         if (c % 2 == 0) {
           solver.ElementChunk(c / 2);
@@ -157,7 +177,7 @@ void CoupledSimulation<T>::AdvanceCoupled(int steps) {
           inverse.ElementChunk(c / 2);
         }
       });
-    } else if (options_.concurrent) {
+    } else if (options_.concurrent && phase == 1 && with_inverse) {
       team_->ForEachChunk(worker, homes.nodes, [&](int c) {
         const int begin = c * kNodesPerChunk, end = std::min(begin + kNodesPerChunk, model.num_nodes());
         T forward_forces[3 * kNodesPerChunk], inverse_forces[3 * kNodesPerChunk];
@@ -172,18 +192,18 @@ void CoupledSimulation<T>::AdvanceCoupled(int steps) {
       team_->ForEachChunk(worker, homes.elements, [&](int c) { solver.ElementChunk(c); });
     } else if (phase == 1) {
       team_->ForEachChunk(worker, homes.nodes, [&](int c) { solver.NodeChunk(c, fraction_end); });
-    } else if (phase == 2) {
+    } else if (phase == 2 && with_inverse) {
       team_->ForEachChunk(worker, homes.elements, [&](int c) { inverse.ElementChunk(c); });
-    } else {
+    } else if (phase == 3 && with_inverse) {
       team_->ForEachChunk(worker, homes.nodes, [&](int c) { inverse.NodeChunk(c); });
     }
   };
-  // The step's end: the inverse side's checks and next weights, the forward
-  // side's reductions and checks.
+  // The step's end: the inverse side's checks, the next step's loads, the
+  // forward side's reductions and checks.
   auto after = [&](int p) {
     if (p % passes_per_step == passes_per_step - 1) {
-      inverse.Finish();
-      solver.SetElementLoads(inverse.weights().data());
+      if (runs_inverse(steps_)) inverse.Finish();
+      solver.SetElementLoads(LoadsAtStep(steps_ + 1));
       solver.FinishStep();
       solver.CheckStep();
       ++steps_;

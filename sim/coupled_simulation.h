@@ -8,6 +8,7 @@
 #include "sim/aligned_vector.h"
 #include "sim/force_resolution.h"
 #include "sim/inverse_dynamics.h"
+#include "sim/inverse_interval.h"
 #include "sim/motion_model.h"
 #include "sim/tled_solver.h"
 
@@ -27,25 +28,28 @@ struct CoupledOptions {
   SolverOptions solver;         // dt_s, damping, stability policy (kSubstep is refused: see below)
   double phase_at_start = 0;    // the motion model's phase at t = 0
   bool concurrent = true;       // inverse of the next step beside the forward step; false: one after the other
+  // Forward steps per level of recovered forces (docs/solver.md, "Recovered
+  // forces at a coarser rate"): the inverse side runs one step in this many,
+  // and the forward step blends the two levels around it. 1: every step.
+  int inverse_interval_steps = kDefaultInverseIntervalSteps;
   std::string Validate() const;  // empty when valid
 };
 
 // The forward TLED simulation driven by positional constraints and/or by
 // forces recovered from a cyclic motion model, inverse and forward run step by
-// step (paper section 2.6). At step n (t = n dt):
+// step (paper section 2.6). With k = inverse_interval_steps, at step n
+// (t = n dt, n = a k + j, 0 <= j < k):
 //   forward:  U_{n+1} from the solver's update with the constraints and the
-//             resolved forces of weights_n applied in the current geometry
-//             U_n (eq. 5), inside the solver's element pass;
-//   inverse:  weights_{n+1} = Resolve(R_{n+1}, Um_{n+1}), and R_{n+2} =
-//             Recover(Um_{n+1}, Um_{n+2}, Um_{n+3}) (eq. 4, motion model Um at
-//             phase_at_start + t / period): InverseSimulation, one level ahead.
+//             resolved forces of weights (1 - j/k) w_a + (j/k) w_{a+1}
+//             applied in the current geometry U_n (eq. 5), inside the
+//             solver's element pass (k = 1: w_n itself);
+//   inverse:  when j = 0, level a + 2 of InverseSimulation (w_{a+2} at step
+//             (a + 2) k; motion model Um at phase_at_start + t / period).
 // The two are independent, so with `concurrent` they run side by side: each
 // of the step's two passes (elements, then nodes) is one pass of a StepTeam
 // over both sides' fixed chunks, two barriers per step, however many threads.
-// Only three motion-model levels and two weight sets are kept. Every partial
+// Only three motion-model levels and three weight sets are kept. Every partial
 // sum runs in fixed chunks, so results are bitwise the same for any thread
-// count and for concurrent or sequential order.
-//
 // The mesh starts in the motion model's geometry at t = 0 with its velocity
 // (at rest in the reference geometry without a motion model); the mount's
 // nodes stay at zero; constrained nodes follow the targets given to Advance().
@@ -91,6 +95,8 @@ class CoupledSimulation {
   void BuildSolver(std::span<const double> u_m, std::span<const double> v_m_s);
   // Runs `steps` steps of forward and inverse simulation on the team.
   void AdvanceCoupled(int steps);
+  // The blended loads of step n's forward update.
+  ElementLoads<T> LoadsAtStep(long long step) const;
 
   std::shared_ptr<const TledModel<T>> model_;
   std::shared_ptr<const CyclicMotionModel> motion_;
@@ -101,7 +107,7 @@ class CoupledSimulation {
   std::unique_ptr<TledSolver<T>> solver_;
   long long steps_ = 0;
 
-  std::unique_ptr<InverseSimulation<T>> inverse_;  // its level is steps_
+  std::unique_ptr<InverseSimulation<T>> inverse_;  // its levels span steps_ (LevelsAhead)
 };
 
 extern template class CoupledSimulation<float>;

@@ -98,11 +98,13 @@ template class ForceRecovery<double>;
 template <typename T>
 InverseSimulation<T>::InverseSimulation(std::shared_ptr<const TledModel<T>> model,
                                         std::shared_ptr<const CyclicMotionModel> motion, const SolverOptions& options,
-                                        double phase_at_start)
+                                        double phase_at_start, int interval_steps)
     : model_(std::move(model)),
       motion_(motion->Reordered(model_->mesh_nodes_in_layout_order())),
       dt_s_(options.dt_s),
-      phase_at_start_(phase_at_start) {
+      phase_at_start_(phase_at_start),
+      interval_steps_(interval_steps) {
+  DG_CHECK(interval_steps_ >= 1);
   if (const std::string problem = options.Validate(); !problem.empty()) {
     throw Error("invalid inverse simulation options: " + problem, "solver options", "correct the option");
   }
@@ -124,18 +126,23 @@ InverseSimulation<T>::InverseSimulation(std::shared_ptr<const TledModel<T>> mode
   element_forces_.assign(model_->force_array_size(), T(0));
   edge_inverse_.assign(size_t(model_->num_blocks()) * 9 * TledModel<T>::kLanes, T(0));
   scaled_forces_.assign(3 * size_t(N), T(0));
-  weights_.assign(model_->force_array_size(), T(0));
-  next_weights_.assign(model_->force_array_size(), T(0));
+  for (AlignedVector<T>& level : weights_) level.assign(model_->force_array_size(), T(0));
   chunk_min_J_.assign(ElementChunks(*model_), T(1));
   chunk_min_ratio_.assign(ElementChunks(*model_), T(1));
   chunk_node_count_ = NodeChunks(*model_);
-  // Level 0's forces need Um_-1 and Um_0 (the node pass adds Um_1); two passes
-  // then bring the weights of level 0 (the first pass resolves zeros).
+  // Level 0's forces need Um_-1 and Um_0 (the node pass adds Um_1); three
+  // passes then bring the weights of levels 0 and 1 (the first pass resolves zeros).
   pending_level_ = 0;
-  motion_.Evaluate<T>(PhaseOf(-1), std::span<T>(motion_levels_[Slot(-1)]));
-  motion_.Evaluate<T>(PhaseOf(0), std::span<T>(motion_levels_[Slot(0)]));
-  Advance();
-  Advance();
+  motion_.Evaluate<T>(PhaseOfStep(-1), std::span<T>(motion_levels_[Slot(-1)]));
+  motion_.Evaluate<T>(PhaseOfStep(0), std::span<T>(motion_levels_[Slot(0)]));
+  for (int pass = 0; pass < 3; ++pass) Advance();
+}
+
+template <typename T>
+std::span<const T> InverseSimulation<T>::weights(long long level) const {
+  DG_CHECK(level <= this->level() && level >= this->level() - 2);
+  const AlignedVector<T>& w = weights_[Slot(level)];
+  return {w.data(), w.size()};
 }
 
 template <typename T>
@@ -149,7 +156,8 @@ template <typename T>
 void InverseSimulation<T>::ElementChunk(int chunk) {
   const int begin = chunk * kBlocksPerChunk;
   const int end = std::min(begin + kBlocksPerChunk, model_->num_blocks());
-  ResolveBuffers<T> resolve{edge_inverse_.data(), scaled_forces_.data(), next_weights_.data()};
+  // The pass resolves the level before the pending one.
+  ResolveBuffers<T> resolve{edge_inverse_.data(), scaled_forces_.data(), weights_[Slot(pending_level_ - 1)].data()};
   chunk_min_J_[chunk] = ComputeElementForcesAndResolve(*model_, motion_levels_[Slot(pending_level_)].data(), &resolve,
                                                        element_forces_.data(), begin, end);
   chunk_min_ratio_[chunk] = resolve.min_volume_ratio;
@@ -163,15 +171,26 @@ void InverseSimulation<T>::NodeChunk(int chunk, const T* gathered) {
   const int end = std::min(begin + kNodesPerChunk, model.num_nodes());
   T own[3 * kNodesPerChunk];
   gathered = ChunkNodalForces(model, element_forces_.data(), begin, end, gathered, own);
-  T* __restrict u_next = motion_levels_[Slot(pending_level_ + 1)].data();
-  const T* __restrict u = motion_levels_[Slot(pending_level_)].data();
-  const T* __restrict u_prev = motion_levels_[Slot(pending_level_ - 1)].data();
-  motion_.Evaluate<T>(PhaseOf(pending_level_ + 1), 3 * begin, std::span<T>(u_next + 3 * begin, 3 * size_t(end - begin)));
+  const size_t first = 3 * size_t(begin), count = 3 * size_t(end - begin);
+  const long long step = pending_level_ * interval_steps_;
+  T* next_level = motion_levels_[Slot(pending_level_ + 1)].data() + first;
+  motion_.Evaluate<T>(PhaseOfStep(step + interval_steps_), static_cast<int>(first), std::span<T>(next_level, count));
+  // The stencil one step either side: the neighbouring levels when they are one step apart.
+  const T* __restrict u = motion_levels_[Slot(pending_level_)].data() + first;
+  const T* __restrict u_prev = motion_levels_[Slot(pending_level_ - 1)].data() + first;
+  const T* __restrict u_next = next_level;
+  T step_before[3 * kNodesPerChunk], step_after[3 * kNodesPerChunk];
+  if (interval_steps_ > 1) {
+    motion_.Evaluate<T>(PhaseOfStep(step - 1), static_cast<int>(first), std::span<T>(step_before, count));
+    motion_.Evaluate<T>(PhaseOfStep(step + 1), static_cast<int>(first), std::span<T>(step_after, count));
+    u_prev = step_before;
+    u_next = step_after;
+  }
   for (int a = begin; a < end; ++a) {
     const T* f = &gathered[3 * (a - begin)];
     for (int i = 0; i < 3; ++i) {
-      const size_t dof = 3 * size_t(a) + i;
-      const T increment = (u_next[dof] - u[dof]) - increment_decay_ * (u[dof] - u_prev[dof]);
+      const size_t local = 3 * size_t(a - begin) + i, dof = first + local;
+      const T increment = (u_next[local] - u[local]) - increment_decay_ * (u[local] - u_prev[local]);
       scaled_forces_[dof] = (f[i] + inertia_gain_[a] * increment - gravity_force_[dof]) * inverse_count_[a];
     }
   }
@@ -186,7 +205,6 @@ void InverseSimulation<T>::Finish() {
     ThrowDegenerateEdges(FindWorstElement(model_->layout_mesh(), u), kMinRatio,
                          "the motion model's geometry while running");
   }
-  std::swap(weights_, next_weights_);
   ++pending_level_;
 }
 

@@ -55,11 +55,14 @@ extern template class ForceRecovery<float>;
 extern template class ForceRecovery<double>;
 
 // The inverse side of the coupled simulation (paper section 2.6): level by
-// level (level n at t = n dt, the motion model Um at phase_at_start + t /
-// period), the weights (eq. 5, ForceResolution's layout) of the forces that
-// ForceRecovery would recover from Um_{n-1}, Um_n, Um_{n+1} (eq. 4), resolved
-// in the geometry X + Um_n. The same arithmetic as ForceRecovery followed by
-// ForceResolution::Resolve, arranged for speed:
+// level, level n at step s = n k (k = interval_steps; t = s dt, the motion
+// model Um at phase_at_start + t / period), the weights (eq. 5,
+// ForceResolution's layout) of the forces that ForceRecovery would recover
+// from Um at steps s - 1, s, s + 1 (eq. 4, the forward step's own stencil),
+// resolved in the geometry X + Um_n. With k = 1 the levels are the forward
+// steps; with k > 1 the caller blends two levels in between (docs/solver.md,
+// "Recovered forces at a coarser rate"). The same arithmetic as ForceRecovery
+// followed by ForceResolution::Resolve, arranged for speed:
 //  - an element pass at Um_{n+2} computes the internal forces there and the
 //    edge inverses D^-1 (from the cofactors of F the forces need), and with
 //    the inverses of Um_{n+1} (stored by the previous pass) resolves the
@@ -67,28 +70,34 @@ extern template class ForceRecovery<double>;
 //    instead of three (recovery, resolution, application);
 //  - a node pass gathers the forces of n + 2, evaluates Um_{n+3} for its own
 //    nodes only (the slot Um_n leaves), and stores r / n_a, the share of each
-//    element, so the resolution multiplies by no count.
-// Three motion levels, one set of edge inverses and two weight sets are kept,
-// all in the model's layout order (the motion model is reordered once).
+//    element, so the resolution multiplies by no count. With k > 1 it also
+//    evaluates its nodes' Um one step either side of level n + 2.
+// Three motion levels, one set of edge inverses and three weight sets (the
+// two newest levels' and the one being written) are kept, all in the model's
+// layout order (the motion model is reordered once).
 //
 // Threading: a level's parts are ElementChunk(c) for every c < element_chunks(),
 // then NodeChunk(c) for every c < node_chunks() (each in any order and on any
 // thread: every chunk writes only its own part), then Finish(); Advance() runs
 // them under tbb::parallel_for. A caller may run them beside other work, as the
-// coupled simulation runs the forward step's. Results do not depend on the
-// order or the thread count. Nothing allocates after construction.
+// coupled simulation runs the forward step's, and read the weights of level()
+// and level() - 1 meanwhile. Results do not depend on the order or the thread
+// count. Nothing allocates after construction.
 template <typename T>
 class InverseSimulation {
  public:
   // Uses options.dt_s, damping_per_s and gravity_m_s2.
-  // @pre motion->dofs() == 3 * model->num_nodes()
-  // @throws dg::Error for invalid options, or as Finish() does for levels 0 to 2.
+  // @pre motion->dofs() == 3 * model->num_nodes(), interval_steps >= 1
+  // @throws dg::Error for invalid options, or as Finish() does for levels 0 to 3.
   InverseSimulation(std::shared_ptr<const TledModel<T>> model, std::shared_ptr<const CyclicMotionModel> motion,
-                    const SolverOptions& options, double phase_at_start);
+                    const SolverOptions& options, double phase_at_start, int interval_steps = 1);
 
-  // The level whose weights weights() holds (0 after construction).
+  // The newest level whose weights are complete (1 after construction).
   long long level() const { return pending_level_ - 2; }
-  std::span<const T> weights() const { return {weights_.data(), weights_.size()}; }
+  int interval_steps() const { return interval_steps_; }
+  // The weights of `level`. @pre level() - 2 <= level <= level(); those of
+  // level() - 2 are overwritten by the next level's element pass.
+  std::span<const T> weights(long long level) const;
 
   // Moves to the next level (all parts under tbb::parallel_for).
   // @throws dg::Error as Finish() does.
@@ -111,11 +120,12 @@ class InverseSimulation {
   friend class CoupledSimulation;
 
   int Slot(long long level) const { return static_cast<int>(((level % 3) + 3) % 3); }
-  double PhaseOf(long long level) const { return motion_.PhaseAt(double(level) * dt_s_, phase_at_start_); }
+  double PhaseOfStep(long long step) const { return motion_.PhaseAt(double(step) * dt_s_, phase_at_start_); }
 
   std::shared_ptr<const TledModel<T>> model_;
   CyclicMotionModel motion_;  // in the model's layout order
   double dt_s_ = 0, phase_at_start_ = 0;
+  int interval_steps_ = 1;
   std::vector<T> inertia_gain_;   // per node: M_a / (A dt^2)
   std::vector<T> gravity_force_;  // per node and axis: M_a g
   std::vector<T> inverse_count_;  // per node: 1 / (number of its elements)
@@ -126,7 +136,7 @@ class InverseSimulation {
   AlignedVector<T> element_forces_;  // at the pending level
   AlignedVector<T> edge_inverse_;    // rows of D^-1 at the last element pass's level
   std::vector<T> scaled_forces_;     // r / n_a (3 per node) at the level before the pending one
-  AlignedVector<T> weights_, next_weights_;
+  AlignedVector<T> weights_[3];      // ring indexed by level % 3
   std::vector<T> chunk_min_J_, chunk_min_ratio_;
   int chunk_node_count_ = 0;
 };

@@ -30,13 +30,15 @@ T InverseCubeRoot(T x) {
 namespace {
 
 // What the element pass does besides the internal forces (see tled_kernel.h).
-enum class PassMode { kForces, kLessLoads, kResolve };
+enum class PassMode { kForces, kLessLoads, kLessBlendedLoads, kResolve };
 
-// The element pass over blocks [block_begin, block_end); `loads` (kLessLoads)
-// and `resolve` (kResolve) are used in their mode only. Returns the smallest J.
+// The element pass over blocks [block_begin, block_end); `loads` (kLessLoads:
+// its first; kLessBlendedLoads: all) and `resolve` (kResolve) are used in
+// their mode only. Returns the smallest J.
 template <typename T, PassMode kMode>
 T ElementPass(const TledModel<T>& model, const T* __restrict u, T* __restrict forces, int block_begin,
-              int block_end, const T* __restrict load_weights, ResolveBuffers<T>* resolve) {
+              int block_end, const ElementLoads<T>* loads, ResolveBuffers<T>* resolve) {
+  constexpr bool kWithLoads = kMode == PassMode::kLessLoads || kMode == PassMode::kLessBlendedLoads;
   constexpr int W = TledModel<T>::kLanes;
   const T mu = model.shear_modulus();
   const T kappa = model.bulk_modulus();
@@ -51,7 +53,9 @@ T ElementPass(const TledModel<T>& model, const T* __restrict u, T* __restrict fo
     const T* __restrict V0 = model.block_volumes(b);
     const T* __restrict D0 = model.block_reference_edges(b);
     T* __restrict f = forces + size_t(b) * 12 * W;
-    const T* __restrict q_load = kMode == PassMode::kLessLoads ? load_weights + size_t(b) * 12 * W : nullptr;
+    const T* __restrict q_first = kWithLoads ? loads->first + size_t(b) * 12 * W : nullptr;
+    const T* __restrict q_second =
+        kMode == PassMode::kLessBlendedLoads ? loads->second + size_t(b) * 12 * W : nullptr;
     T* __restrict Dinv = kMode == PassMode::kResolve ? edge_inverse + size_t(b) * 9 * W : nullptr;
     T* __restrict q_out = kMode == PassMode::kResolve ? weights + size_t(b) * 12 * W : nullptr;
     alignas(64) T J_lane[W];
@@ -110,14 +114,21 @@ T ElementPass(const TledModel<T>& model, const T* __restrict u, T* __restrict fo
       T f3z = P20 * g3x + P21 * g3y + P22 * g3z;
       T f0x = -(f1x + f2x + f3x), f0y = -(f1y + f2y + f3y), f0z = -(f1z + f2z + f3z);
 
-      if constexpr (kMode == PassMode::kLessLoads) {
+      if constexpr (kWithLoads) {
         // The current edges D = D0 + (u_j - u_0), columns e1, e2, e3.
         const T e1x = D0[0 * W + l] + d1x, e1y = D0[1 * W + l] + d1y, e1z = D0[2 * W + l] + d1z;
         const T e2x = D0[3 * W + l] + d2x, e2y = D0[4 * W + l] + d2y, e2z = D0[5 * W + l] + d2z;
         const T e3x = D0[6 * W + l] + d3x, e3y = D0[7 * W + l] + d3y, e3z = D0[8 * W + l] + d3z;
         // Corner c's resolved load D q_c (eq. 5 in the current geometry), taken off its force.
+        auto weight = [&](int k) {
+          if constexpr (kMode == PassMode::kLessBlendedLoads) {
+            return q_first[k * W + l] + loads->blend * (q_second[k * W + l] - q_first[k * W + l]);
+          } else {
+            return q_first[k * W + l];
+          }
+        };
         auto load = [&](int c, T& fx, T& fy, T& fz) {
-          const T q1 = q_load[(3 * c) * W + l], q2 = q_load[(3 * c + 1) * W + l], q3 = q_load[(3 * c + 2) * W + l];
+          const T q1 = weight(3 * c), q2 = weight(3 * c + 1), q3 = weight(3 * c + 2);
           fx -= e1x * q1 + e2x * q2 + e3x * q3;
           fy -= e1y * q1 + e2y * q2 + e3y * q3;
           fz -= e1z * q1 + e2z * q2 + e3z * q3;
@@ -186,9 +197,12 @@ T ComputeElementForces(const TledModel<T>& model, const T* u, T* forces, int blo
 }
 
 template <typename T>
-T ComputeElementForcesLessLoads(const TledModel<T>& model, const T* u, const T* load_weights, T* forces,
+T ComputeElementForcesLessLoads(const TledModel<T>& model, const T* u, const ElementLoads<T>& loads, T* forces,
                                 int block_begin, int block_end) {
-  return ElementPass<T, PassMode::kLessLoads>(model, u, forces, block_begin, block_end, load_weights, nullptr);
+  if (loads.second == nullptr || loads.blend == T(0)) {
+    return ElementPass<T, PassMode::kLessLoads>(model, u, forces, block_begin, block_end, &loads, nullptr);
+  }
+  return ElementPass<T, PassMode::kLessBlendedLoads>(model, u, forces, block_begin, block_end, &loads, nullptr);
 }
 
 template <typename T>
@@ -246,10 +260,10 @@ template ChunkHomes PartitionChunks<double>(const TledModel<double>&, int);
 template float InverseCubeRoot<float>(float);
 template double InverseCubeRoot<double>(double);
 template float ComputeElementForces<float>(const TledModel<float>&, const float*, float*, int, int);
-template float ComputeElementForcesLessLoads<float>(const TledModel<float>&, const float*, const float*, float*, int,
-                                                    int);
-template double ComputeElementForcesLessLoads<double>(const TledModel<double>&, const double*, const double*, double*,
-                                                      int, int);
+template float ComputeElementForcesLessLoads<float>(const TledModel<float>&, const float*, const ElementLoads<float>&,
+                                                    float*, int, int);
+template double ComputeElementForcesLessLoads<double>(const TledModel<double>&, const double*,
+                                                      const ElementLoads<double>&, double*, int, int);
 template float ComputeElementForcesAndResolve<float>(const TledModel<float>&, const float*, ResolveBuffers<float>*,
                                                      float*, int, int);
 template double ComputeElementForcesAndResolve<double>(const TledModel<double>&, const double*,

@@ -1,5 +1,7 @@
 #pragma once
 
+#include <array>
+#include <cstddef>
 #include <span>
 #include <vector>
 
@@ -24,11 +26,20 @@ T ComputeElementForces(const TledModel<T>& model, const T* u, T* forces, int blo
 // The same pass less each element's resolved loads (force resolution, paper
 // eq. 5; see force_resolution.h for the weights' form): corner c of an element
 // receives D q_c, D = D0 + (u_j - u_0) its edges in the geometry X + u and q_c
-// its weights in load_weights ([block][corner][xyz][lane]); `forces` gets
-// f_c - D q_c, so a node's gathered sum is F(U) less the applied load. Folding
-// the load into this pass reuses the edge displacements the forces need.
+// its weights ([block][corner][xyz][lane]); `forces` gets f_c - D q_c, so a
+// node's gathered sum is F(U) less the applied load. Folding the load into
+// this pass reuses the edge displacements the forces need.
+// The weights are q = first + blend (second - first): a time between two
+// levels of recovered loads (docs/solver.md, "Recovered forces at a coarser
+// rate"); with blend 0 (or no second) they are `first`, bitwise.
 template <typename T>
-T ComputeElementForcesLessLoads(const TledModel<T>& model, const T* u, const T* load_weights, T* forces,
+struct ElementLoads {
+  const T* first = nullptr;
+  const T* second = nullptr;
+  T blend = 0;
+};
+template <typename T>
+T ComputeElementForcesLessLoads(const TledModel<T>& model, const T* u, const ElementLoads<T>& loads, T* forces,
                                 int block_begin, int block_end);
 
 // The inverse simulation's element pass (paper eqs. 4 and 5, one level apart):
@@ -84,21 +95,42 @@ struct ChunkHomes {
 template <typename T>
 ChunkHomes PartitionChunks(const TledModel<T>& model, int parts);
 
+// The sums of node a's element-corner forces in each of N element-major force
+// arrays (forces[i] -> sums[i], 3 each), in one walk over its incidences.
+// Two partial sums per component, over the incidences in even and odd places
+// of the node's list, then added: the order is fixed by the model (results do
+// not depend on threads or on N), and two chains halve the wait on the adder's
+// latency, which is what bounds a single chain (a node has some 19 incidences).
+template <typename T, size_t N>
+inline void GatherNodalSums(const TledModel<T>& model, const std::array<const T*, N>& forces, int a,
+                            const std::array<T*, N>& sums) {
+  constexpr int W = TledModel<T>::kLanes;
+  const int32_t* offsets = model.gather_offsets().data();
+  const int begin = model.gather_begin()[a], end = model.gather_begin()[a + 1];
+  T even[N][3] = {}, odd[N][3] = {};
+  int k = begin;
+  for (; k + 1 < end; k += 2) {
+    for (size_t i = 0; i < N; ++i) {
+      const T* first = forces[i] + offsets[k];
+      const T* second = forces[i] + offsets[k + 1];
+      for (int axis = 0; axis < 3; ++axis) {
+        even[i][axis] += first[axis * W];
+        odd[i][axis] += second[axis * W];
+      }
+    }
+  }
+  for (size_t i = 0; i < N; ++i) {
+    for (int axis = 0; axis < 3; ++axis) {
+      if (k < end) even[i][axis] += forces[i][offsets[k] + axis * W];
+      sums[i][axis] = even[i][axis] + odd[i][axis];
+    }
+  }
+}
+
 // Sum of the element forces at node a, in the model's fixed order (deterministic).
 template <typename T>
 inline void GatherNodalForce(const TledModel<T>& model, const T* forces, int a, T* f) {
-  constexpr int W = TledModel<T>::kLanes;
-  const int32_t* offsets = model.gather_offsets().data();
-  T fx = 0, fy = 0, fz = 0;
-  for (int k = model.gather_begin()[a]; k < model.gather_begin()[a + 1]; ++k) {
-    const T* corner = forces + offsets[k];
-    fx += corner[0];
-    fy += corner[W];
-    fz += corner[2 * W];
-  }
-  f[0] = fx;
-  f[1] = fy;
-  f[2] = fz;
+  GatherNodalSums<T, 1>(model, {forces}, a, {f});
 }
 
 // The nodal forces of the chunk of nodes [begin, end), 3 per node: `gathered`
@@ -114,29 +146,11 @@ inline const T* ChunkNodalForces(const TledModel<T>& model, const T* forces, int
 
 // GatherNodalForce of two force arrays in one walk over node a's incidences,
 // each summed in the same order as GatherNodalForce (bitwise the same sums):
-// one loop's control and offsets serve both, and the two chains overlap.
+// one loop's control and offsets serve both, and the chains overlap.
 template <typename T>
 inline void GatherNodalForces(const TledModel<T>& model, const T* forces_a, const T* forces_b, int a, T* f_a,
                               T* f_b) {
-  constexpr int W = TledModel<T>::kLanes;
-  const int32_t* offsets = model.gather_offsets().data();
-  T ax = 0, ay = 0, az = 0, bx = 0, by = 0, bz = 0;
-  for (int k = model.gather_begin()[a]; k < model.gather_begin()[a + 1]; ++k) {
-    const T* corner_a = forces_a + offsets[k];
-    const T* corner_b = forces_b + offsets[k];
-    ax += corner_a[0];
-    ay += corner_a[W];
-    az += corner_a[2 * W];
-    bx += corner_b[0];
-    by += corner_b[W];
-    bz += corner_b[2 * W];
-  }
-  f_a[0] = ax;
-  f_a[1] = ay;
-  f_a[2] = az;
-  f_b[0] = bx;
-  f_b[1] = by;
-  f_b[2] = bz;
+  GatherNodalSums<T, 2>(model, {forces_a, forces_b}, a, {f_a, f_b});
 }
 
 // x^(-1/3) for x > 0, branch-free so the element loop vectorises: a bit-level

@@ -249,8 +249,8 @@ void TledSolver<T>::ElementChunk(int chunk) {
   const int begin = chunk * kBlocksPerChunk;
   const int end = std::min(begin + kBlocksPerChunk, model_->num_blocks());
   chunk_min_J_[chunk] =
-      element_load_weights_
-          ? ComputeElementForcesLessLoads(*model_, u_.data(), element_load_weights_, element_forces_.data(), begin, end)
+      element_loads_.first
+          ? ComputeElementForcesLessLoads(*model_, u_.data(), element_loads_, element_forces_.data(), begin, end)
           : ComputeElementForces(*model_, u_.data(), element_forces_.data(), begin, end);
 }
 

@@ -97,10 +97,11 @@ class TledSolver {
   void SetExternalForces(std::span<const double> forces_n);
 
   // Resolved element loads (force resolution, paper eq. 5): weights in
-  // ForceResolution's layout, applied in the current geometry from the next
-  // step on, inside the element pass (ComputeElementForcesLessLoads); null
-  // removes them. The caller keeps the array alive and unchanged while stepping.
-  void SetElementLoads(const T* weights) { element_load_weights_ = weights; }
+  // ForceResolution's layout (one level, or two blended), applied in the
+  // current geometry from the next step on, inside the element pass
+  // (ComputeElementForcesLessLoads); a null first removes them. The caller
+  // keeps the arrays alive and unchanged while stepping.
+  void SetElementLoads(const ElementLoads<T>& loads) { element_loads_ = loads; }
 
   // Starts from displacement u (3 per node, m) and velocity v (m/s): U = u,
   // U- = u - v dt. @throws dg::Error on a size mismatch or non-finite value.
@@ -193,7 +194,7 @@ class TledSolver {
 
   AlignedVector<T> u_prev_, u_, u_next_;
   AlignedVector<T> element_forces_;
-  const T* element_load_weights_ = nullptr;
+  ElementLoads<T> element_loads_;  // none while its first is null
   std::vector<T> internal_force_, external_force_, reaction_;
   std::vector<T> chunk_min_J_;
   std::vector<double> chunk_kinetic_;  // twice the chunk's kinetic energy times (2 dt)^2

@@ -34,6 +34,7 @@ FemStage::FemStage(const Options& options, const sim::TetMesh& mesh, const sim::
   coupled.solver.damping_per_s = options_.damping_per_s;
   coupled.phase_at_start = options_.phase_at_first_frame;
   coupled.concurrent = options_.concurrent;
+  coupled.inverse_interval_steps = options_.inverse_interval_steps;
   coupled.solver.launch_helper = options_.launch_helper;
   if (options_.double_precision) {
     simulation_ = std::make_unique<sim::CoupledSimulation<double>>(

@@ -60,6 +60,7 @@ class FemStage {
     double phase_at_first_frame = 0;   // the registration's cardiac phase of frame 0
     int sampled_nodes = 256;           // nodes logged per frame (SampledNodeIds)
     bool concurrent = true;            // inverse beside forward (false: one after the other)
+    int inverse_interval_steps = sim::kDefaultInverseIntervalSteps;  // steps per level of recovered forces
     bool double_precision = false;     // the simulation in double instead of float
     sim::HelperLauncher launch_helper; // where the solver's helper workers run (empty: the caller's TBB arena)
     std::string Validate() const;      // empty when valid

@@ -140,6 +140,7 @@ TEST_CASE("scene: simulation and registration", "[io][unit]") {
   REQUIRE_FALSE(scene.simulation->concurrent);
   REQUIRE(scene.simulation->damping_per_s == 75);  // the paper's alpha by default
   REQUIRE(scene.simulation->precision == "float");
+  REQUIRE(scene.simulation->inverse_interval_steps == sim::kDefaultInverseIntervalSteps);
   REQUIRE(scene.registration->cycles == 2);
   REQUIRE(scene.registration->file.empty());
 
@@ -157,6 +158,10 @@ TEST_CASE("scene: simulation and registration", "[io][unit]") {
   dir = MakeSceneDir("dg_scene_test_sim", kScene + std::string("simulation:\n  precision: half\n"));
   REQUIRE_THROWS_WITH(ReadScene((dir / "scene.yaml").string()),
                       Catch::Contains("unknown precision 'half'") && Catch::Contains("simulation.precision"));
+  dir = MakeSceneDir("dg_scene_test_sim", kScene + std::string("simulation:\n  inverse_interval_steps: 0\n"));
+  REQUIRE_THROWS_WITH(ReadScene((dir / "scene.yaml").string()),
+                      Catch::Contains("'inverse_interval_steps' must lie in [1, 50]") &&
+                          Catch::Contains("simulation.inverse_interval_steps"));
   dir = MakeSceneDir("dg_scene_test_sim", kScene + std::string("simulation:\n  dt: 2e-4\n"));
   REQUIRE_THROWS_WITH(ReadScene((dir / "scene.yaml").string()), Catch::Contains("simulation.dt"));
   dir = MakeSceneDir("dg_scene_test_sim", kScene + std::string("registration:\n  cycles: 0.5\n"));

@@ -88,17 +88,42 @@ TEST_CASE("force resolution: loads taken off in the element pass equal Apply's f
   model.ToLayout(std::span<const double>(u_current), std::span<double>(u_layout));
   AlignedVector<double> plain(model.force_array_size()), less(model.force_array_size());
   ComputeElementForces(model, u_layout.data(), plain.data(), 0, model.num_blocks());
-  ComputeElementForcesLessLoads(model, u_layout.data(), weights.data(), less.data(), 0, model.num_blocks());
+  // The loads taken off the element forces, node by node in the mesh's order.
+  auto taken_off = [&](const ElementLoads<double>& loads) {
+    ComputeElementForcesLessLoads(model, u_layout.data(), loads, less.data(), 0, model.num_blocks());
+    std::vector<double> difference(applied.size());
+    for (int a = 0; a < model.num_nodes(); ++a) {
+      double f_plain[3], f_less[3];
+      GatherNodalForce(model, plain.data(), model.layout_node(a), f_plain);
+      GatherNodalForce(model, less.data(), model.layout_node(a), f_less);
+      for (int i = 0; i < 3; ++i) difference[3 * a + i] = f_plain[i] - f_less[i];
+    }
+    return difference;
+  };
   double scale = 0;
   for (double r : applied) scale = std::max(scale, std::abs(r));
   REQUIRE(scale > 0);
-  for (int a = 0; a < model.num_nodes(); ++a) {
-    double f_plain[3], f_less[3];
-    const int l = model.layout_node(a);
-    GatherNodalForce(model, plain.data(), l, f_plain);
-    GatherNodalForce(model, less.data(), l, f_less);
-    for (int i = 0; i < 3; ++i) REQUIRE_THAT(f_plain[i] - f_less[i], Catch::Matchers::WithinAbs(applied[3 * a + i], 1e-12 * scale));
+  const std::vector<double> one_level = taken_off({weights.data()});
+  for (size_t k = 0; k < applied.size(); ++k) {
+    REQUIRE_THAT(one_level[k], Catch::Matchers::WithinAbs(applied[k], 1e-12 * scale));
   }
+
+  // Two levels blended 30% of the way: Apply is linear in the weights, so the
+  // loads are 0.7 of the first level's plus 0.3 of the second's.
+  std::vector<double> second_forces(s.forces.size()), second_weights(weights.size()), second_applied(applied.size());
+  for (size_t k = 0; k < second_forces.size(); ++k) second_forces[k] = -0.5 * s.forces[k] + 0.1 * std::cos(double(k));
+  resolution.Resolve(s.u_model, second_forces, second_weights);
+  resolution.Apply(second_weights, u_current, second_applied);
+  const std::vector<double> blended = taken_off({weights.data(), second_weights.data(), 0.3});
+  double blended_scale = 0;
+  for (size_t k = 0; k < applied.size(); ++k) {
+    const double expected = 0.7 * applied[k] + 0.3 * second_applied[k];
+    blended_scale = std::max(blended_scale, std::abs(expected));
+    REQUIRE_THAT(blended[k], Catch::Matchers::WithinAbs(expected, 1e-12 * scale));
+  }
+  REQUIRE(blended_scale > 0.1 * scale);
+  // A blend of 0 is the first level, bitwise.
+  REQUIRE(taken_off({weights.data(), second_weights.data(), 0.0}) == one_level);
 }
 
 // A geometry that squashes an element flat cannot carry weights: a dg::Error

@@ -161,6 +161,11 @@ void AddBenchCommand(CLI::App& app) {
       ->delimiter(',')
       ->check(CLI::IsMember({"float", "double"}))
       ->capture_default_str();
+  sim->add_option("--inverse-interval", options->inverse_intervals,
+                  "combined, volume: forward steps per level of recovered forces, each measured with its error")
+      ->delimiter(',')
+      ->check(CLI::Range(1, sim::kMaxInverseIntervalSteps))
+      ->capture_default_str();
   sim->add_option("--repeats", options->repeats, "Timed repeats; the median is reported")->capture_default_str();
   sim->add_option("--seconds", options->simulated_per_repeat_s, "Simulated seconds per repeat")->capture_default_str();
   sim->add_option("--json", *json_path, "Save the records to this JSON file");

@@ -197,40 +197,77 @@ SimBenchRecord Measure(const BenchProblem& problem, int threads, const SimBenchO
   return MakeRecord<T>(problem.name, problem.mesh, threads, "forward", rates, problem.stability, options);
 }
 
-// The image-constrained simulation in one mode; the constrained nodes (none
-// in volume mode) follow the motion model, reaching it at the end of each advance.
+// The image-constrained simulation in one mode on the phantom, its
+// constrained nodes (none in volume mode) set.
 template <typename T>
-std::vector<double> MeasureCoupledRates(const PhantomProblem& problem, sim::SimulationMode mode, bool concurrent,
-                                        int threads, const SimBenchOptions& options) {
-  tbb::global_control parallelism(tbb::global_control::max_allowed_parallelism, threads);
+sim::CoupledSimulation<T> MakeCoupled(const PhantomProblem& problem, sim::SimulationMode mode, bool concurrent,
+                                      int inverse_interval, const SimBenchOptions& options) {
   sim::CoupledOptions coupled;
   coupled.mode = mode;
   coupled.solver.dt_s = options.dt_s;
   coupled.concurrent = concurrent;
+  coupled.inverse_interval_steps = inverse_interval;
   sim::CoupledSimulation<T> simulation(std::make_shared<const sim::TledModel<T>>(problem.mesh, problem.material),
                                        problem.motion, problem.fixed_nodes, coupled, &problem.stability);
   if (mode != sim::SimulationMode::kVolume) simulation.SetConstrainedNodes(problem.constrained_nodes);
-  std::vector<T> u(3 * size_t(problem.mesh.num_nodes()));
+  return simulation;
+}
+
+// Advances `steps`, the constrained nodes reaching the motion model at the end.
+template <typename T>
+void AdvanceFollowingMotion(sim::CoupledSimulation<T>& simulation, int steps, std::vector<T>& motion) {
+  simulation.MotionAtStep(simulation.steps_taken() + steps, motion);
   std::vector<double> targets;
-  return TimeRepeats(problem.mesh.num_tets(), StepsPerRepeat(options), options.repeats, [&](int steps) {
-    simulation.MotionAtStep(simulation.steps_taken() + steps, u);
-    targets.clear();
-    for (int a : simulation.constrained_nodes()) targets.insert(targets.end(), &u[3 * a], &u[3 * a] + 3);
-    simulation.Advance(steps, targets);
-  });
+  for (int a : simulation.constrained_nodes()) targets.insert(targets.end(), &motion[3 * a], &motion[3 * a] + 3);
+  simulation.Advance(steps, targets);
 }
 
 template <typename T>
-SimBenchRecord MeasureCoupled(const PhantomProblem& problem, const std::string& mode_name, int threads,
-                              const SimBenchOptions& options) {
+std::vector<double> MeasureCoupledRates(const PhantomProblem& problem, sim::SimulationMode mode, bool concurrent,
+                                        int inverse_interval, int threads, const SimBenchOptions& options) {
+  tbb::global_control parallelism(tbb::global_control::max_allowed_parallelism, threads);
+  sim::CoupledSimulation<T> simulation = MakeCoupled<T>(problem, mode, concurrent, inverse_interval, options);
+  std::vector<T> motion(3 * size_t(problem.mesh.num_nodes()));
+  return TimeRepeats(problem.mesh.num_tets(), StepsPerRepeat(options), options.repeats,
+                     [&](int steps) { AdvanceFollowingMotion(simulation, steps, motion); });
+}
+
+// The largest node distance from the motion model over one cardiac period,
+// the constrained nodes led frame by frame at 30 Hz as a run leads them.
+template <typename T>
+double MotionError(const PhantomProblem& problem, sim::SimulationMode mode, int inverse_interval,
+                   const SimBenchOptions& options) {
+  sim::CoupledSimulation<T> simulation = MakeCoupled<T>(problem, mode, true, inverse_interval, options);
+  std::vector<T> motion(3 * size_t(problem.mesh.num_nodes()));
+  const long long period_steps = std::llround(problem.motion->period_s() / options.dt_s);
+  const int frame_steps = std::max(1, static_cast<int>(std::lround(1.0 / 30.0 / options.dt_s)));
+  double largest = 0;
+  while (simulation.steps_taken() < period_steps) {
+    AdvanceFollowingMotion(simulation, frame_steps, motion);
+    const std::span<const T> u = simulation.displacement();
+    for (size_t a = 0; a < motion.size(); a += 3) {
+      const double dx = double(u[a]) - motion[a], dy = double(u[a + 1]) - motion[a + 1],
+                   dz = double(u[a + 2]) - motion[a + 2];
+      largest = std::max(largest, std::sqrt(dx * dx + dy * dy + dz * dz));
+    }
+  }
+  return largest;
+}
+
+template <typename T>
+SimBenchRecord MeasureCoupled(const PhantomProblem& problem, const std::string& mode_name, int inverse_interval,
+                              int threads, const SimBenchOptions& options) {
   const sim::SimulationMode mode = sim::ParseSimulationMode(mode_name);
   SimBenchRecord record = MakeRecord<T>("phantom", problem.mesh, threads, mode_name,
-                                        MeasureCoupledRates<T>(problem, mode, true, threads, options),
+                                        MeasureCoupledRates<T>(problem, mode, true, inverse_interval, threads, options),
                                         problem.stability, options);
   if (mode != sim::SimulationMode::kSurface) {
-    const std::vector<double> sequential = MeasureCoupledRates<T>(problem, mode, false, threads, options);
+    const std::vector<double> sequential =
+        MeasureCoupledRates<T>(problem, mode, false, inverse_interval, threads, options);
     record.sequential_tet_steps_per_s = sequential[sequential.size() / 2];
     record.concurrent_gain = record.tet_steps_per_s / record.sequential_tet_steps_per_s;
+    record.inverse_interval_steps = inverse_interval;
+    record.motion_error_m = MotionError<T>(problem, mode, inverse_interval, options);
   }
   return record;
 }
@@ -263,13 +300,19 @@ std::vector<SimBenchRecord> RunSimBench(const SimBenchOptions& options, bool pro
       }
       continue;
     }
+    // Surface mode has no recovered forces: one interval stands for all.
+    const std::vector<int> intervals =
+        mode == "surface" ? std::vector<int>{options.inverse_intervals.front()} : options.inverse_intervals;
     for (int target : options.tets) {
       const PhantomProblem problem = MakePhantomProblem(target);
-      for (const std::string& precision : options.precisions) {
-        for (int threads : options.threads) {
-          records.push_back(precision == "float" ? MeasureCoupled<float>(problem, mode, threads, options)
-                                                 : MeasureCoupled<double>(problem, mode, threads, options));
-          report();
+      for (int interval : intervals) {
+        for (const std::string& precision : options.precisions) {
+          for (int threads : options.threads) {
+            records.push_back(precision == "float"
+                                  ? MeasureCoupled<float>(problem, mode, interval, threads, options)
+                                  : MeasureCoupled<double>(problem, mode, interval, threads, options));
+            report();
+          }
         }
       }
     }
@@ -278,7 +321,7 @@ std::vector<SimBenchRecord> RunSimBench(const SimBenchOptions& options, bool pro
     r.barrier_ns = MeasureBarrierNs(r.threads);
     for (const SimBenchRecord& one : records) {
       if (one.threads == 1 && one.mesh == r.mesh && one.mesh_tets == r.mesh_tets && one.mode == r.mode &&
-          one.precision == r.precision) {
+          one.precision == r.precision && one.inverse_interval_steps == r.inverse_interval_steps) {
         r.speedup_over_1_thread = r.tet_steps_per_s / one.tet_steps_per_s;
       }
     }
@@ -293,12 +336,14 @@ void WriteSimBenchJson(const std::string& path, const std::vector<SimBenchRecord
                              "\"mode\": %s, \"tet_steps_per_s\": %.6g, \"tet_steps_per_s_min\": %.6g, "
                              "\"tet_steps_per_s_max\": %.6g, \"speedup_over_1_thread\": %.4g, \"barrier_ns\": %.4g, "
                              "\"realtime_factor\": %.6g, \"dt_s\": %.6g, \"dt_critical_s\": %.6g, \"steps_per_repeat\": %d, "
-                             "\"repeats\": %d, \"sequential_tet_steps_per_s\": %.6g, \"concurrent_gain\": %.4g",
+                             "\"repeats\": %d, \"sequential_tet_steps_per_s\": %.6g, \"concurrent_gain\": %.4g, "
+                             "\"inverse_interval_steps\": %d, \"motion_error_m\": %.4g",
                              JsonQuoted(r.mesh).c_str(), r.mesh_tets, r.mesh_nodes, r.threads,
                              JsonQuoted(r.precision).c_str(), JsonQuoted(r.mode).c_str(), r.tet_steps_per_s,
                              r.tet_steps_per_s_min, r.tet_steps_per_s_max, r.speedup_over_1_thread, r.barrier_ns,
                              r.realtime_factor, r.dt_s, r.dt_critical_s, r.steps_per_repeat, r.repeats,
-                             r.sequential_tet_steps_per_s, r.concurrent_gain));
+                             r.sequential_tet_steps_per_s, r.concurrent_gain, r.inverse_interval_steps,
+                             r.motion_error_m));
   }
   WriteBenchJson(path, fields);
 }
@@ -306,17 +351,21 @@ void WriteSimBenchJson(const std::string& path, const std::vector<SimBenchRecord
 std::string SimBenchTable(const std::vector<SimBenchRecord>& records) {
   std::string table =
       "| mode | mesh | tets | nodes | precision | threads | M tet-steps/s (median) | min-max | x 1 thread | "
-      "barrier ns | real-time factor | concurrent gain | dt_cr ms |\n"
-      "|---|---|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|\n";
+      "barrier ns | real-time factor | concurrent gain | inverse every | motion error um | dt_cr ms |\n"
+      "|---|---|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
   for (const SimBenchRecord& r : records) {
-    char gain[16] = "-", speedup[16] = "-", barrier[16] = "-";
+    char gain[16] = "-", speedup[16] = "-", barrier[16] = "-", interval[16] = "-", error[16] = "-";
     if (r.concurrent_gain > 0) std::snprintf(gain, sizeof gain, "%.2f", r.concurrent_gain);
+    if (r.inverse_interval_steps > 0) {
+      std::snprintf(interval, sizeof interval, "%d", r.inverse_interval_steps);
+      std::snprintf(error, sizeof error, "%.1f", r.motion_error_m * 1e6);
+    }
     if (r.speedup_over_1_thread > 0) std::snprintf(speedup, sizeof speedup, "%.2f", r.speedup_over_1_thread);
     if (r.barrier_ns > 0) std::snprintf(barrier, sizeof barrier, "%.0f", r.barrier_ns);
-    table += Printed("| %s | %s | %d | %d | %s | %d | %.1f | %.1f-%.1f | %s | %s | %.2f | %s | %.3f |\n", r.mode.c_str(),
-                     r.mesh.c_str(), r.mesh_tets, r.mesh_nodes, r.precision.c_str(), r.threads,
+    table += Printed("| %s | %s | %d | %d | %s | %d | %.1f | %.1f-%.1f | %s | %s | %.2f | %s | %s | %s | %.3f |\n",
+                     r.mode.c_str(), r.mesh.c_str(), r.mesh_tets, r.mesh_nodes, r.precision.c_str(), r.threads,
                      r.tet_steps_per_s / 1e6, r.tet_steps_per_s_min / 1e6, r.tet_steps_per_s_max / 1e6, speedup,
-                     barrier, r.realtime_factor, gain, r.dt_critical_s * 1e3);
+                     barrier, r.realtime_factor, gain, interval, error, r.dt_critical_s * 1e3);
   }
   return table;
 }

@@ -3,6 +3,8 @@
 #include <string>
 #include <vector>
 
+#include "sim/coupled_simulation.h"
+
 namespace dg::tools {
 
 struct SimBenchOptions {
@@ -16,6 +18,9 @@ struct SimBenchOptions {
   std::string mesh_path;
   bool shuffled_too = false;  // forward: also each mesh with its nodes in a random order
   std::vector<std::string> precisions{"float", "double"};
+  // combined and volume: forward steps per level of recovered forces
+  // (sim::CoupledOptions::inverse_interval_steps), each measured.
+  std::vector<int> inverse_intervals{sim::kDefaultInverseIntervalSteps};
   int repeats = 7;                 // timed runs per configuration; the median is reported
   double simulated_per_repeat_s = 0.05;  // 250 steps of 0.2 ms
   double dt_s = 2e-4;
@@ -38,6 +43,13 @@ struct SimBenchRecord {
   // one after the other, and the concurrent scheme's gain over it.
   double sequential_tet_steps_per_s = 0;
   double concurrent_gain = 0;
+  // combined and volume only (else 0): forward steps per level of recovered
+  // forces, and the largest distance of a node from the motion model over one
+  // cardiac period (sampled at 30 Hz), metres: the scheme's error, since the
+  // recovered forces alone (volume) or with the surface following the motion
+  // model (combined) should reproduce it.
+  int inverse_interval_steps = 0;
+  double motion_error_m = 0;
   // The rate over the same configuration's on 1 thread in the same run (0 if not measured).
   double speedup_over_1_thread = 0;
   // The solver's barrier (a sim::StepTeam pass with no work), per pass, at
