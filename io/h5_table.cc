@@ -65,13 +65,24 @@ std::vector<hsize_t> Dims(const H5Column& column, std::size_t rows) {
   return {rows, column.width};
 }
 
+// A chunk of at most 256 KiB: HDF5 caches 1 MiB of chunks per dataset, and a
+// write into a chunk not in the cache reads, inflates and deflates it whole
+// (a 4096-row chunk of 256 sampled nodes would be 25 MB, rewritten at every
+// flush). Narrow columns keep the table's chunk_rows.
+constexpr hsize_t kMaxChunkBytes = 256 * 1024;
+
+std::size_t ChunkRows(const H5Column& column, const H5Table::Options& options) {
+  const hsize_t row_bytes = column.width * SizeOf(column.type);
+  return static_cast<std::size_t>(std::clamp<hsize_t>(kMaxChunkBytes / row_bytes, 1, options.chunk_rows));
+}
+
 // An empty column dataset, unlimited along its rows, chunked and compressed.
 hid_t CreateColumn(hid_t group, const H5Column& column, const H5Table::Options& options,
                    const std::string& where) {
   const std::vector<hsize_t> dims = Dims(column, 0);
   std::vector<hsize_t> max_dims = dims;
   max_dims[0] = H5S_UNLIMITED;
-  std::vector<hsize_t> chunk = Dims(column, options.chunk_rows);
+  std::vector<hsize_t> chunk = Dims(column, ChunkRows(column, options));
   Handle space(Checked(H5Screate_simple(static_cast<int>(dims.size()), dims.data(), max_dims.data()),
                        "create a dataspace", where),
                H5Sclose);
@@ -99,13 +110,14 @@ hid_t CreateColumn(hid_t group, const H5Column& column, const H5Table::Options& 
 // would exceed the full size, HDF5 stores the chunk uncompressed.
 hsize_t BytesToWrite(const std::vector<H5Column>& columns, const H5Table::Options& options, std::size_t written,
                      std::size_t rows) {
-  const std::size_t chunk_rows = options.chunk_rows, end = written + rows;
+  const std::size_t end = written + rows;
   hsize_t bytes = kMetadataBytes;
-  for (std::size_t first = written / chunk_rows * chunk_rows; first < end; first += chunk_rows) {
-    const hsize_t present = std::min(end, first + chunk_rows) - first;
-    for (const H5Column& column : columns) {
-      const hsize_t row_bytes = column.width * SizeOf(column.type);
-      const hsize_t full = chunk_rows * row_bytes;
+  for (const H5Column& column : columns) {
+    const std::size_t chunk_rows = ChunkRows(column, options);
+    const hsize_t row_bytes = column.width * SizeOf(column.type);
+    const hsize_t full = chunk_rows * row_bytes;
+    for (std::size_t first = written / chunk_rows * chunk_rows; first < end; first += chunk_rows) {
+      const hsize_t present = std::min(end, first + chunk_rows) - first;
       const hsize_t deflated = present * row_bytes * 101 / 100 + full / 100 + 1024;
       bytes += (options.deflate_level > 0 ? std::min(full, deflated) : full) + kColumnMetadataBytes;
     }

@@ -79,7 +79,7 @@ class H5Values {
 class H5Table {
  public:
   struct Options {
-    std::size_t chunk_rows = 4096;  // rows per HDF5 chunk and per write
+    std::size_t chunk_rows = 4096;  // rows per write, and per HDF5 chunk up to 256 KiB a chunk
     int deflate_level = 4;          // 0 (none) .. 9
     std::string Validate() const;   // empty when valid
   };

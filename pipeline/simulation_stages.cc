@@ -2,6 +2,7 @@
 
 #include <atomic>
 #include <cmath>
+#include <cstdio>
 
 #include "io/gmsh_reader.h"
 #include "pipeline/overlay_stages.h"
@@ -61,6 +62,19 @@ std::shared_ptr<const SimulationSetup> LoadSimulationSetup(const io::Scene& scen
   setup->material = scene.material;
   setup->options = *scene.simulation;
   setup->fps = scene.video.fps;
+  std::vector<int> fixed_dofs;
+  for (int a : setup->fixed_nodes) {
+    for (int i = 0; i < 3; ++i) fixed_dofs.push_back(3 * a + i);
+  }
+  setup->stability = sim::EstimateStability(setup->mesh, setup->material, fixed_dofs);
+  const double safety = sim::DefaultStabilitySafety(setup->material.poissons_ratio);
+  if (const std::string excess = setup->stability.TimeStepExcess(setup->options.dt_s, safety); !excess.empty()) {
+    char limit[32];
+    std::snprintf(limit, sizeof limit, "%.4g ms", safety * setup->stability.dt_critical_s * 1e3);
+    throw Error("simulation.dt_s: " + excess, scene.path,
+                "set simulation.dt_s at or below " + std::string(limit) +
+                    ", or mesh more coarsely or with better-shaped elements near the limiting node");
+  }
   const auto load_motion = [&] {
     return stages::LoadMotionModel(scene.preoperative->motion, setup->mesh.num_nodes(), scene.preoperative->period_s,
                                    setup->options.motion_smoothing);
@@ -148,7 +162,7 @@ void FemAdapter::Process(FramePacket& packet) {
     options.double_precision = setup_->options.precision == "double";
     options.launch_helper = helpers_->launcher();
     fem_ = std::make_unique<stages::FemStage>(options, setup_->mesh, setup_->material, setup_->motion,
-                                              setup_->predictor, setup_->fixed_nodes);
+                                              setup_->predictor, setup_->fixed_nodes, &setup_->stability);
     first_frame_ = packet.index;
     Logger("simulate").info("simulation starts at frame {} ({} mode, {}, dt {} ms, critical dt {:.3f} ms)",
                             packet.index, setup_->options.mode, setup_->options.precision, 1e3 * options.dt_s,

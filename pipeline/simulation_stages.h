@@ -64,13 +64,18 @@ struct SimulationSetup {
   std::shared_ptr<const sim::CyclicMotionModel> predictor;
   io::Scene::Simulation options;
   double fps = 30;
+  // The mesh's stable time step with the mount held, estimated at load so
+  // that an unstable dt_s is refused before the run starts, and the first
+  // simulated frame does not pay for the estimate.
+  sim::StabilityReport stability;
 
   // The motion model's phase at video time t_s under a registration.
   double PhaseAt(const io::Registration& registration, double t_s) const;
 };
 
 // @throws dg::Error for a scene without simulation, a mesh without the named
-// fixed or surface set, or an unreadable motion model.
+// fixed or surface set, an unreadable motion model, or a time step above the
+// mesh's stable limit.
 std::shared_ptr<const SimulationSetup> LoadSimulationSetup(const io::Scene& scene);
 
 // constraints: packet.tracks (+ registration) -> packet.targets. Ties the

@@ -57,6 +57,13 @@ std::string StabilityReport::Describe() const {
   return text;
 }
 
+std::string StabilityReport::TimeStepExcess(double dt_s, double safety) const {
+  if (dt_s <= safety * dt_critical_s) return {};
+  char text[64];
+  std::snprintf(text, sizeof text, "time step %.4g ms exceeds %.2f x the ", dt_s * 1e3, safety);
+  return text + Describe();
+}
+
 namespace {
 
 StabilityReport EstimateStabilityOnce(const TetMesh& mesh, const Material& material,

@@ -33,6 +33,9 @@ struct StabilityReport {
 
   // One line: both limits in ms, where, and how converged.
   std::string Describe() const;
+  // "time step X ms exceeds S x the critical time step ..." when dt_s is above
+  // safety * dt_critical_s, else empty.
+  std::string TimeStepExcess(double dt_s, double safety) const;
 };
 
 // The fraction of the estimated dt_cr a step may take, by Poisson's ratio.

@@ -113,9 +113,7 @@ TledSolver<T>::TledSolver(std::shared_ptr<const TledModel<T>> model, BoundaryCon
   if (options_.dt_s > safe_dt) {
     switch (options_.time_step_policy) {
       case TimeStepPolicy::kRefuse:
-        throw Error("time step " + Milliseconds(options_.dt_s) + " exceeds " +
-                        Fraction(safety_) + " x the " + stability_.Describe(),
-                    model_->mesh().source,
+        throw Error(stability_.TimeStepExcess(options_.dt_s, safety_), model_->mesh().source,
                     "use dt <= " + Milliseconds(safe_dt) +
                         ", a coarser or better-shaped mesh near the limiting node, or automatic substepping");
       case TimeStepPolicy::kSubstep:

@@ -18,7 +18,8 @@ std::string FemStage::Options::Validate() const {
 
 FemStage::FemStage(const Options& options, const sim::TetMesh& mesh, const sim::Material& material,
                    std::shared_ptr<const sim::CyclicMotionModel> motion,
-                   std::shared_ptr<const sim::CyclicMotionModel> predictor, const std::vector<int>& fixed_nodes)
+                   std::shared_ptr<const sim::CyclicMotionModel> predictor, const std::vector<int>& fixed_nodes,
+                   const sim::StabilityReport* stability)
     : options_(options), reference_S_m_(mesh.X_m), gap_(predictor, options.phase_at_first_frame) {
   if (const std::string problem = options_.Validate(); !problem.empty()) {
     throw Error("invalid FEM stage options: " + problem, "FEM stage options", "correct the option");
@@ -38,10 +39,12 @@ FemStage::FemStage(const Options& options, const sim::TetMesh& mesh, const sim::
   coupled.solver.launch_helper = options_.launch_helper;
   if (options_.double_precision) {
     simulation_ = std::make_unique<sim::CoupledSimulation<double>>(
-        std::make_shared<const sim::TledModel<double>>(mesh, material), std::move(motion), fixed_nodes, coupled);
+        std::make_shared<const sim::TledModel<double>>(mesh, material), std::move(motion), fixed_nodes, coupled,
+        stability);
   } else {
     simulation_ = std::make_unique<sim::CoupledSimulation<float>>(
-        std::make_shared<const sim::TledModel<float>>(mesh, material), std::move(motion), fixed_nodes, coupled);
+        std::make_shared<const sim::TledModel<float>>(mesh, material), std::move(motion), fixed_nodes, coupled,
+        stability);
   }
   sampled_nodes_ = SampledNodeIds(mesh.num_nodes(), options_.sampled_nodes);
 }

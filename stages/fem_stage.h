@@ -69,12 +69,14 @@ class FemStage {
   // `motion` drives the inverse simulation (null in surface mode). `predictor`
   // (may be null) predicts the constraints across dropped frames: the scan's
   // motion whenever the scene has one, in surface mode too, where it applies
-  // no force. fixed_nodes: the mount's.
+  // no force. fixed_nodes: the mount's. `stability` (optional): the mesh's
+  // estimate with the mount held, when the caller made it ahead (else made here).
   // @throws dg::Error for invalid options, a motion model for another mesh,
   // an unstable time step or a degenerate motion model (sim::CoupledSimulation).
   FemStage(const Options& options, const sim::TetMesh& mesh, const sim::Material& material,
            std::shared_ptr<const sim::CyclicMotionModel> motion,
-           std::shared_ptr<const sim::CyclicMotionModel> predictor, const std::vector<int>& fixed_nodes);
+           std::shared_ptr<const sim::CyclicMotionModel> predictor, const std::vector<int>& fixed_nodes,
+           const sim::StabilityReport* stability = nullptr);
 
   // The node displacements at frame 0 (the motion model at the registered
   // phase, zero without one): what ConstraintMapper needs.

@@ -106,5 +106,30 @@ TEST_CASE("bad values: a mesh in millimetres read as metres is refused at scene 
   fs::remove_all(options.out_dir);
 }
 
+// A time step above the mesh's stable limit is refused when the scene loads,
+// before a frame is read, naming the key, the limit and where the mesh sets
+// it, instead of inverting an element at the first simulated frame.
+TEST_CASE("bad values: a simulation time step above the mesh's stable limit is refused at scene load",
+          "[faults][integration]") {
+  const std::string dir = dg::testing::TinyPhantomDir();
+  const io::Scene scene = io::ReadScene(dir + "/scene.yaml");
+  std::string text = scene.text;
+  const size_t at = text.find("dt_s: 2.0e-4");
+  REQUIRE(at != std::string::npos);
+  text.replace(at, 12, "dt_s: 2.0e-3");
+  std::ofstream(dir + "/scene_large_dt.yaml") << text;
+
+  tools::RunOptions options;
+  options.scene = dir + "/scene_large_dt.yaml";
+  options.out_dir = FreshFolder("large_dt").string();
+  options.video = false;
+  options.progress = false;
+  REQUIRE_THROWS_WITH(tools::RunScene(options), Contains("simulation.dt_s: time step 2 ms exceeds") &&
+                                                    Contains("critical time step") && Contains("highest mode") &&
+                                                    Contains("set simulation.dt_s at or below"));
+  REQUIRE(fs::is_empty(options.out_dir));
+  fs::remove_all(options.out_dir);
+}
+
 }  // namespace
 }  // namespace dg
