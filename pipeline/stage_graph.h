@@ -23,9 +23,11 @@ const char* PolicyName(Policy policy);
 
 struct GraphOptions {
   Policy policy = Policy::kOffline;
-  // Packets in flight (the limiter's tokens): enough to keep two cores busy
-  // with a serial and a parallel stage overlapped, few enough to bound memory and latency.
-  int max_in_flight = 3;
+  // Packets in flight (the limiter's tokens): two keep two cores busy (the
+  // front end of one frame beside the simulation of the one before) and bound
+  // the latency to about two frames; a third only queues (on the default
+  // phantom: the same offline rate, and 30 ms more latency in real time).
+  int max_in_flight = 2;
   std::int64_t first_frame = 0;  // frames before it are skipped
   std::int64_t end_frame = -1;   // one past the last frame; -1: to the end of the recording
   // Offline only: frames the source skips as the realtime policy skips the
