@@ -139,10 +139,26 @@ bool CaptureStage::Read(StereoFrame* frame) {
     frame_count_ = static_cast<int>(next_index_);
     return false;
   }
+  if (!eyes_differ_) CheckEyesDiffer(*frame);
   frame->index = next_index_;
   frame->t_s = FrameTime(next_index_, container_t_s);
   ++next_index_;
   return true;
+}
+
+void CaptureStage::CheckEyesDiffer(const StereoFrame& frame) {
+  // A uniform frame (black before the recording starts) is equal in both eyes
+  // of any recording: only a frame with content tells.
+  double lowest = 0, highest = 0;
+  cv::minMaxLoc(frame.left.reshape(1), &lowest, &highest);
+  if (lowest == highest) return;
+  if (cv::norm(frame.left, frame.right, cv::NORM_INF) == 0) {
+    throw Error("frame " + std::to_string(next_index_) +
+                    " is the same in both eyes, pixel for pixel: both eyes show the same video",
+                options_.left_path + (options_.right_path.empty() ? "" : " and " + options_.right_path),
+                "give each eye its own recording (the scene's video.left and video.right, or --left and --right)");
+  }
+  eyes_differ_ = true;
 }
 
 std::optional<StereoFrame> CaptureStage::Next() {

@@ -51,7 +51,8 @@ class CaptureStage {
 
   // The next frame into `frame`, reusing its images' buffers (see
   // FrameSource::Read); false after the last.
-  // @throws dg::Error when an image of another size turns up mid-stream.
+  // @throws dg::Error when an image of another size turns up mid-stream, or
+  // when the first frame with content is the same in both eyes.
   bool Read(StereoFrame* frame);
   // The next frame in new buffers, or std::nullopt after the last.
   std::optional<StereoFrame> Next();
@@ -64,6 +65,9 @@ class CaptureStage {
 
  private:
   double FrameTime(std::int64_t index, const std::optional<double>& container_t_s);
+  // Until a frame with content has been seen: that frame's eyes must differ.
+  // @throws dg::Error when they are equal pixel for pixel.
+  void CheckEyesDiffer(const StereoFrame& frame);
 
   Options options_;
   std::unique_ptr<FrameSource> left_, right_;  // right_ is null for side-by-side input
@@ -76,6 +80,7 @@ class CaptureStage {
   double first_container_t_s_ = 0;
   double last_t_s_ = -1;
   bool container_times_ = true;
+  bool eyes_differ_ = false;  // a frame with content had different eyes
 };
 
 // A captured image as the tracker takes it: grey (BGR and BGRA converted,

@@ -6,6 +6,7 @@
 #include <string>
 
 #include "sim/error.h"
+#include "stages/track/stereo_pair_check.h"
 
 namespace dg::stages {
 namespace {
@@ -48,6 +49,7 @@ TrackFrame FeatureTracker::Process(const cv::Mat& left_R, const cv::Mat& right_R
 void FeatureTracker::Process(const cv::Mat& left_R, const cv::Mat& right_R, TrackFrame* frame, TrackTimings* timings) {
   TrackTimings spent;
   auto start = std::chrono::steady_clock::now();
+  const bool first_pair = previous_.empty();
   frame->points.clear();
   frame->detected = frame->lost = 0;
   temporal_.BuildPyramid(left_R, &current_);
@@ -83,6 +85,7 @@ void FeatureTracker::Process(const cv::Mat& left_R, const cv::Mat& right_R, Trac
     expected_.push_back(t.disparity);
   }
   const std::vector<StereoMatch> matches = stereo_.Match(left_R, right_R, points_, &expected_);
+  if (first_pair) CheckFirstStereoPair(left_R, right_R, points_, matches);
   spent.stereo_ms = Lap(&start);
   kept_.clear();
   for (size_t i = 0; i < tracks_.size(); ++i) {

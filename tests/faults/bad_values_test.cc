@@ -14,6 +14,7 @@
 #include "io/scene.h"
 #include "sim/error.h"
 #include "stages/image_sequence.h"
+#include "tests/support/h5_plain.h"
 #include "tests/support/tiny_phantom.h"
 #include "tools/run/run_job.h"
 
@@ -129,6 +130,44 @@ TEST_CASE("bad values: a simulation time step above the mesh's stable limit is r
                                                     Contains("set simulation.dt_s at or below"));
   REQUIRE(fs::is_empty(options.out_dir));
   fs::remove_all(options.out_dir);
+}
+
+// The same video for both eyes, or the eyes exchanged, stop the run at frame
+// 0 naming the cause (at capture: the frames are equal pixel for pixel; at
+// tracking: few points match along their rows and the right image is shifted
+// the wrong way), instead of tracking a handful of points and blaming the
+// fiducials later. The log is kept and marked incomplete with that error.
+TEST_CASE("bad values: both eyes the same video, or the eyes exchanged, stop the run naming the cause",
+          "[faults][integration]") {
+  const std::string dir = dg::testing::TinyPhantomDir();
+  const io::Scene scene = io::ReadScene(dir + "/scene.yaml");
+  const size_t left = scene.text.find("left: video/left.avi"), right = scene.text.find("right: video/right.avi");
+  REQUIRE(left != std::string::npos);
+  REQUIRE(right != std::string::npos);
+  struct Case {
+    std::string name, left, right, expected;
+  };
+  for (const Case& c : {Case{"same_eyes", "left.avi", "left.avi", "is the same in both eyes, pixel for pixel"},
+                        Case{"swapped_eyes", "right.avi", "left.avi", "the left and right eyes look swapped"}}) {
+    std::string text = scene.text;
+    text.replace(right, 22, "right: video/" + c.right);
+    text.replace(left, 20, "left: video/" + c.left);
+    std::ofstream(dir + "/scene_" + c.name + ".yaml") << text;
+    tools::RunOptions options;
+    options.scene = dir + "/scene_" + c.name + ".yaml";
+    options.out_dir = FreshFolder(c.name).string();
+    options.video = false;
+    options.progress = false;
+    INFO(c.name);
+    REQUIRE_THROWS_WITH(tools::RunScene(options), Contains(c.expected) && Contains("frame 0") &&
+                                                      Contains("video.left and video.right"));
+    const hid_t file = H5Fopen((options.out_dir + "/run.h5").c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+    REQUIRE(file >= 0);
+    CHECK(testing::h5_plain::IntAttribute(file, "/", "complete") == 0);
+    CHECK_THAT(testing::h5_plain::StringAttribute(file, "/", "error"), Contains(c.expected));
+    H5Fclose(file);
+    fs::remove_all(options.out_dir);
+  }
 }
 
 }  // namespace

@@ -42,11 +42,14 @@ void WriteVideo(const std::string& path, const std::vector<cv::Mat>& frames, dou
   for (const cv::Mat& frame : frames) writer.write(frame);
 }
 
-std::vector<cv::Mat> Gradients(int count, cv::Size size) {
+// Frames of a gradient that moves with the frame; `eye` 1 shifts it, as a
+// second camera sees a scene (capture refuses two eyes that are the same).
+std::vector<cv::Mat> Gradients(int count, cv::Size size, int eye = 0) {
   std::vector<cv::Mat> frames;
   for (int j = 0; j < count; ++j) {
     cv::Mat frame(size, CV_8UC3);
-    frame.forEach<cv::Vec3b>([j](cv::Vec3b& px, const int* rc) { px = cv::Vec3b(rc[0] * 4 + j, rc[1] * 3, 128); });
+    frame.forEach<cv::Vec3b>(
+        [j, eye](cv::Vec3b& px, const int* rc) { px = cv::Vec3b(rc[0] * 4 + j, rc[1] * 3 + 8 * eye, 128); });
     frames.push_back(frame);
   }
   return frames;
@@ -63,9 +66,16 @@ std::string ErrorMessage(const CaptureStage::Options& options) {
   return "";
 }
 
+// The right eye is the same video mirrored, written as MJPG (OpenCV's own
+// encoder): capture refuses two eyes that are the same video.
 TEST_CASE("capture: a real video read as left and right files", "[stages][integration]") {
   const std::vector<cv::Mat> truth = ReadAll(kMegamind);
-  CaptureStage capture({Layout::kTwoFiles, kMegamind, kMegamind, 0});
+  std::vector<cv::Mat> mirrored(truth.size());
+  for (size_t k = 0; k < truth.size(); ++k) cv::flip(truth[k], mirrored[k], 1);
+  const std::string right = (TempDir("two_files") / "right.avi").string();
+  cv::VideoCapture original(kMegamind);
+  WriteVideo(right, mirrored, original.get(cv::CAP_PROP_FPS));
+  CaptureStage capture({Layout::kTwoFiles, kMegamind, right, 0});
   REQUIRE(capture.frame_count() == static_cast<int>(truth.size()));
   REQUIRE(capture.size() == truth[0].size());
   REQUIRE(capture.truncation().empty());
@@ -76,7 +86,7 @@ TEST_CASE("capture: a real video read as left and right files", "[stages][integr
     REQUIRE(frame->t_s > last_t_s);
     REQUIRE(frame->t_s == Approx(count / capture.fps()).margin(1e-3));
     REQUIRE(cv::norm(frame->left, truth[count], cv::NORM_INF) == 0);
-    REQUIRE(cv::norm(frame->right, truth[count], cv::NORM_INF) == 0);
+    REQUIRE(MeanAbsDifference(frame->right, mirrored[count]) < 4);  // JPEG's loss only
     last_t_s = frame->t_s;
     ++count;
   }
@@ -111,7 +121,7 @@ TEST_CASE("capture: a side-by-side video is split into its halves", "[stages][in
 
 TEST_CASE("capture: image sequences by printf pattern and by glob", "[stages][integration]") {
   const fs::path dir = TempDir("sequence");
-  const std::vector<cv::Mat> left = Gradients(12, {64, 48}), right = Gradients(12, {64, 48});
+  const std::vector<cv::Mat> left = Gradients(12, {64, 48}), right = Gradients(12, {64, 48}, 1);
   for (int j = 0; j < 12; ++j) {
     char name[64];
     std::snprintf(name, sizeof name, "left_%04d.png", j + 1);  // numbered from 1, as many cameras do
@@ -145,7 +155,7 @@ TEST_CASE("capture: inputs that disagree are rejected or truncated, saying so", 
   const std::string short_video = (dir / "short.avi").string(), fast = (dir / "fast.avi").string();
   WriteVideo(small, Gradients(5, {64, 48}), 25);
   WriteVideo(large, Gradients(5, {80, 48}), 25);
-  WriteVideo(short_video, Gradients(3, {64, 48}), 25);
+  WriteVideo(short_video, Gradients(3, {64, 48}, 1), 25);
   WriteVideo(fast, Gradients(5, {64, 48}), 30);
 
   const std::string missing = (dir / "missing.avi").string();

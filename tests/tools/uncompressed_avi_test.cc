@@ -1,5 +1,6 @@
 // The phantom's uncompressed AVI read back by FFmpeg through OpenCV, and by
 // the capture stage: every byte as written, the frame count and rate as stated.
+#include <cstdint>
 #include <filesystem>
 #include <fstream>
 
@@ -16,8 +17,8 @@ namespace {
 
 namespace fs = std::filesystem;
 
-std::vector<cv::Mat> RandomFrames(int count, cv::Size size) {
-  cv::RNG rng(7);
+std::vector<cv::Mat> RandomFrames(int count, cv::Size size, std::uint64_t seed = 7) {
+  cv::RNG rng(seed);
   std::vector<cv::Mat> frames;
   for (int i = 0; i < count; ++i) {
     frames.emplace_back(size, CV_8UC3);
@@ -54,7 +55,7 @@ TEST_CASE("uncompressed AVI: FFmpeg reads back every byte, the count and the rat
 }
 
 TEST_CASE("uncompressed AVI: the capture stage reads a stereo pair with container times", "[unit]") {
-  const std::vector<cv::Mat> left = RandomFrames(4, {64, 48}), right = RandomFrames(4, {64, 48});
+  const std::vector<cv::Mat> left = RandomFrames(4, {64, 48}), right = RandomFrames(4, {64, 48}, 8);
   stages::CaptureStage::Options options;
   options.left_path = Written("dg_uncompressed_left.avi", left, 25);
   options.right_path = Written("dg_uncompressed_right.avi", right, 25);
