@@ -349,7 +349,8 @@ void TledSolver<T>::CheckStep() {
                 "reduce dt below " + Milliseconds(safety_ * stability_.dt_critical_s) +
                     " (" + stability_.Describe() + "), or check the loads for NaN");
   }
-  if (!(min_J_ > 0)) ThrowInversion();
+  // The forces that reported it were computed at the previous level, now in u_prev_.
+  if (!(min_J_ > 0)) ThrowInversion(u_prev_.data(), internal_steps_ - 1);
 }
 
 template <typename T>
@@ -365,14 +366,21 @@ bool TledSolver<T>::EnergyBlowingUp() const {
 }
 
 template <typename T>
-void TledSolver<T>::ThrowInversion() const {
-  // Rare path: name the most inverted element (smallest J, in double). The
-  // forces that reported it were computed at the previous level, now in u_prev_.
+void TledSolver<T>::CheckCurrentState() const {
+  const TetMesh& mesh = model_->layout_mesh();
+  for (int e = 0; e < mesh.num_tets(); ++e) {
+    if (!(DeformationGradient(mesh, e, u_.data()).determinant() > 0)) ThrowInversion(u_.data(), internal_steps_);
+  }
+}
+
+template <typename T>
+void TledSolver<T>::ThrowInversion(const T* u, long long step) const {
+  // Rare path: name the most inverted element (smallest J, in double).
   const TetMesh& mesh = model_->layout_mesh();
   int worst = 0;
   double worst_J = std::numeric_limits<double>::infinity();
   for (int e = 0; e < mesh.num_tets(); ++e) {
-    const double J = DeformationGradient(mesh, e, u_prev_.data()).determinant();
+    const double J = DeformationGradient(mesh, e, u).determinant();
     if (!(J >= worst_J)) {
       worst_J = J;
       worst = e;
@@ -383,7 +391,7 @@ void TledSolver<T>::ThrowInversion() const {
   char where[200];
   std::snprintf(where, sizeof where, "element %d (J = %.3g) at (%.2f, %.2f, %.2f) mm, %s", worst, worst_J,
                 centroid_mm.x(), centroid_mm.y(), centroid_mm.z(),
-                StepWhere(internal_steps_ - 1, time_s() - internal_dt_s()).c_str());
+                StepWhere(step, double(step) * internal_dt_s()).c_str());
   const double dt = internal_dt_s(), safe_dt = safety_ * stability_.dt_critical_s;
   if (dt > safe_dt) {
     // Run unchecked above the limit: the inversion is the scheme diverging, not the load.

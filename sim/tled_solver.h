@@ -125,6 +125,11 @@ class TledSolver {
   // Current displacement U, metres.
   std::span<const T> displacement() const { return InMeshOrder(u_, displacement_view_); }
   Eigen::Matrix3Xd DisplacementMatrix() const;
+  // A step checks the state it starts from, so the state after the last step
+  // is checked by the next one. Before that state goes to an output: throws
+  // the inversion error (as a step would) if an element of it is inverted or
+  // degenerate, so that no inverted element and no non-finite stress is written.
+  void CheckCurrentState() const;
   // Displacement U- of the step before, metres: with displacement(), the
   // whole state, e.g. to carry it into a solver with other boundary conditions.
   std::span<const T> previous_displacement() const { return InMeshOrder(u_prev_, previous_view_); }
@@ -169,7 +174,8 @@ class TledSolver {
   void FinishStep();
   void CheckStep();
   bool EnergyBlowingUp() const;
-  [[noreturn]] void ThrowInversion() const;
+  // The error for the most inverted element of state u at `step`.
+  [[noreturn]] void ThrowInversion(const T* u, long long step) const;
 
   std::shared_ptr<const TledModel<T>> model_;
   BoundaryConditions conditions_;

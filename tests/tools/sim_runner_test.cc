@@ -1,6 +1,8 @@
 #include "tools/sim/sim_runner.h"
 
+#include <cmath>
 #include <filesystem>
+#include <vector>
 #include <fstream>
 #include <sstream>
 
@@ -87,6 +89,55 @@ output_every_s: 0.005
   REQUIRE(ReadText(out + "/summary.json").find("\"status\": \"incomplete: error\"") != std::string::npos);
   REQUIRE(CompleteAttribute(out + "/sim.h5") == 0);
   REQUIRE(std::filesystem::exists(out + "/sim.xmf"));
+}
+
+// Every value of every step in a file, through the HDF5 C API: the number of
+// non-finite ones, and the steps read.
+struct FiniteCount {
+  long long non_finite = 0, datasets = 0;
+};
+herr_t CountNonFinite(hid_t object, const char* name, const H5O_info_t* info, void* data) {
+  if (info->type != H5O_TYPE_DATASET) return 0;
+  const hid_t set = H5Dopen2(object, name, H5P_DEFAULT);
+  const hid_t space = H5Dget_space(set);
+  std::vector<double> values(static_cast<size_t>(H5Sget_simple_extent_npoints(space)));
+  const bool floating = H5Tget_class(H5Dget_type(set)) == H5T_FLOAT;
+  if (floating && !values.empty()) {
+    H5Dread(set, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, values.data());
+    auto& count = *static_cast<FiniteCount*>(data);
+    ++count.datasets;
+    for (double v : values) count.non_finite += !std::isfinite(v);
+  }
+  H5Sclose(space);
+  H5Dclose(set);
+  return 0;
+}
+
+// Run unchecked at ten times the safe step, the solution diverges: the run
+// stops naming the time step as the cause (not the load), and no inverted
+// element's stress (NaN) reaches the file: a state goes to an output only
+// after its elements are checked.
+TEST_CASE("sim runner: unchecked above the stability limit, nothing non-finite is written", "[tools][integration]") {
+  io::SimProblem problem = io::ParseSimProblem(kBuiltinProblem, "<built-in example>", ".");
+  problem.solver.time_step_policy = sim::TimeStepPolicy::kUnchecked;
+  problem.solver.dt_s = 4e-3;  // the 20k box's safe step is 0.39 ms
+  problem.output_every_s = 4e-3;
+  const sim::TetMesh mesh = io::LoadProblemMesh(problem.mesh);
+  const std::string out = (std::filesystem::temp_directory_path() / "dg_sim_runner_unchecked").string();
+  std::filesystem::remove_all(out);
+  SimRunOptions options;
+  options.out_dir = out;
+  options.progress = false;
+  REQUIRE_THROWS_WITH(RunSimProblem(problem, mesh, options),
+                      Catch::Contains("inverted element: the time step 4 ms is above the stability limit"));
+  REQUIRE(CompleteAttribute(out + "/sim.h5") == 0);
+  const hid_t file = H5Fopen((out + "/sim.h5").c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+  REQUIRE(file >= 0);
+  FiniteCount count;
+  H5Ovisit2(file, H5_INDEX_NAME, H5_ITER_INC, CountNonFinite, &count, H5O_INFO_BASIC);
+  H5Fclose(file);
+  CHECK(count.datasets > 3);  // the mesh and the steps before the divergence
+  CHECK(count.non_finite == 0);
 }
 
 // A problem may name any Gmsh file (in mm) and select its nodes geometrically;

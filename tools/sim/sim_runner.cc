@@ -99,6 +99,7 @@ SimSummary Run(const io::SimProblem& problem, const sim::TetMesh& mesh, const Si
   }
   auto write_output = [&] {
     if (!series) return;
+    solver.CheckCurrentState();  // no inverted element, no non-finite stress, in a file
     const Eigen::Matrix3Xd u = solver.DisplacementMatrix();
     series->Append(solver.time_s(), u, OutputFields(mesh, problem.material, u));
   };
