@@ -149,6 +149,11 @@ Scene::Simulation ReadSimulation(const YamlMap& map) {
   simulation.concurrent = map.Boolean("concurrent", simulation.concurrent);
   simulation.inverse_interval_steps = map.Integer("inverse_interval_steps", simulation.inverse_interval_steps);
   simulation.precision = map.String("precision", simulation.precision);
+  simulation.time_step_policy = map.String("time_step_policy", simulation.time_step_policy);
+  if (simulation.time_step_policy != "refuse" && simulation.time_step_policy != "substep") {
+    throw Error("unknown time step policy '" + simulation.time_step_policy + "'", map.Where("time_step_policy"),
+                "use refuse (a dt_s above the mesh's stable step is an error) or substep");
+  }
   if (simulation.precision != "float" && simulation.precision != "double") {
     throw Error("unknown precision '" + simulation.precision + "'", map.Where("precision"),
                 "use float (the default, faster) or double");

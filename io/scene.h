@@ -84,6 +84,9 @@ struct Scene {
     bool concurrent = true;         // inverse beside forward
     int inverse_interval_steps = sim::kDefaultInverseIntervalSteps;  // forward steps per level of recovered forces
     std::string precision = "float";  // float (as the paper's GPU solver) or double
+    // A dt_s above the mesh's stable step: refuse (an error at scene load) or
+    // substep (each step split into the fewest equal substeps that are stable).
+    std::string time_step_policy = "refuse";
     int sampled_nodes = 256;        // nodes logged per frame in /sim
     double max_tie_distance_m = 3e-3;  // features farther from every free surface node are not tied
     // A feature departing from the scan's prediction by more than the larger of

@@ -67,13 +67,24 @@ std::shared_ptr<const SimulationSetup> LoadSimulationSetup(const io::Scene& scen
     for (int i = 0; i < 3; ++i) fixed_dofs.push_back(3 * a + i);
   }
   setup->stability = sim::EstimateStability(setup->mesh, setup->material, fixed_dofs);
-  const double safety = sim::DefaultStabilitySafety(setup->material.poissons_ratio);
-  if (const std::string excess = setup->stability.TimeStepExcess(setup->options.dt_s, safety); !excess.empty()) {
+  const double safe_dt_s = sim::DefaultStabilitySafety(setup->material.poissons_ratio) * setup->stability.dt_critical_s;
+  if (setup->options.dt_s > safe_dt_s) {
     char limit[32];
-    std::snprintf(limit, sizeof limit, "%.4g ms", safety * setup->stability.dt_critical_s * 1e3);
-    throw Error("simulation.dt_s: " + excess, scene.path,
-                "set simulation.dt_s at or below " + std::string(limit) +
-                    ", or mesh more coarsely or with better-shaped elements near the limiting node");
+    std::snprintf(limit, sizeof limit, "%.4g ms", safe_dt_s * 1e3);
+    const std::string excess = setup->stability.TimeStepExcess(
+        setup->options.dt_s, sim::DefaultStabilitySafety(setup->material.poissons_ratio));
+    if (setup->options.time_step_policy != "substep") {
+      throw Error("simulation.dt_s: " + excess, scene.path,
+                  "set simulation.dt_s at or below " + std::string(limit) +
+                      ", let the run substep (simulation.time_step_policy: substep), or mesh more coarsely or "
+                      "with better-shaped elements near the limiting node");
+    }
+    // The simulation then steps at the largest stable fraction of dt_s; a
+    // frame takes that many more steps (FemStage: round(1 / (fps dt))).
+    const int substeps = static_cast<int>(std::ceil(setup->options.dt_s / safe_dt_s));
+    Logger("simulate").info("simulation.dt_s = {:.4g} ms split into {} substeps of {:.4g} ms: {}",
+                            setup->options.dt_s * 1e3, substeps, setup->options.dt_s / substeps * 1e3, excess);
+    setup->options.dt_s /= substeps;
   }
   const auto load_motion = [&] {
     return stages::LoadMotionModel(scene.preoperative->motion, setup->mesh.num_nodes(), scene.preoperative->period_s,

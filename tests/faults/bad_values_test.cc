@@ -13,6 +13,7 @@
 #include "io/gmsh_reader.h"
 #include "io/scene.h"
 #include "sim/error.h"
+#include "sim/stability.h"
 #include "stages/image_sequence.h"
 #include "tests/support/h5_plain.h"
 #include "tests/support/tiny_phantom.h"
@@ -110,7 +111,7 @@ TEST_CASE("bad values: a mesh in millimetres read as metres is refused at scene 
 // A time step above the mesh's stable limit is refused when the scene loads,
 // before a frame is read, naming the key, the limit and where the mesh sets
 // it, instead of inverting an element at the first simulated frame.
-TEST_CASE("bad values: a simulation time step above the mesh's stable limit is refused at scene load",
+TEST_CASE("bad values: a simulation time step above the mesh's stable limit is refused at scene load, or substepped",
           "[faults][integration]") {
   const std::string dir = dg::testing::TinyPhantomDir();
   const io::Scene scene = io::ReadScene(dir + "/scene.yaml");
@@ -127,8 +128,25 @@ TEST_CASE("bad values: a simulation time step above the mesh's stable limit is r
   options.progress = false;
   REQUIRE_THROWS_WITH(tools::RunScene(options), Contains("simulation.dt_s: time step 2 ms exceeds") &&
                                                     Contains("critical time step") && Contains("highest mode") &&
-                                                    Contains("set simulation.dt_s at or below"));
+                                                    Contains("set simulation.dt_s at or below") &&
+                                                    Contains("time_step_policy: substep"));
   REQUIRE(fs::is_empty(options.out_dir));
+
+  // Asked to substep, the run splits each step into the fewest stable ones:
+  // every frame's step is below the stable fraction (0.9 of dt_cr at the
+  // phantom's nu = 0.45) and above half of it.
+  text.replace(text.find("dt_s: 2.0e-3"), 12, "dt_s: 2.0e-3\n  time_step_policy: substep");
+  std::ofstream(dir + "/scene_large_dt.yaml") << text;
+  const tools::RunOutcome outcome = tools::RunScene(options);
+  REQUIRE(outcome.simulated_frames > 0);
+  const hid_t file = H5Fopen((options.out_dir + "/run.h5").c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+  REQUIRE(file >= 0);
+  CHECK(testing::h5_plain::IntAttribute(file, "/", "complete") == 1);
+  for (double ratio : testing::h5_plain::Doubles(file, "/sim/dt_over_dt_critical")) {
+    CHECK(ratio <= sim::DefaultStabilitySafety(scene.material.poissons_ratio));
+    CHECK(ratio > 0.5 * sim::DefaultStabilitySafety(scene.material.poissons_ratio));
+  }
+  H5Fclose(file);
   fs::remove_all(options.out_dir);
 }
 

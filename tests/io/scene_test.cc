@@ -158,6 +158,10 @@ TEST_CASE("scene: simulation and registration", "[io][unit]") {
   dir = MakeSceneDir("dg_scene_test_sim", kScene + std::string("simulation:\n  precision: half\n"));
   REQUIRE_THROWS_WITH(ReadScene((dir / "scene.yaml").string()),
                       Catch::Contains("unknown precision 'half'") && Catch::Contains("simulation.precision"));
+  dir = MakeSceneDir("dg_scene_test_sim", kScene + std::string("simulation:\n  time_step_policy: shrink\n"));
+  REQUIRE_THROWS_WITH(ReadScene((dir / "scene.yaml").string()),
+                      Catch::Contains("unknown time step policy 'shrink'") &&
+                          Catch::Contains("simulation.time_step_policy") && Catch::Contains("substep"));
   dir = MakeSceneDir("dg_scene_test_sim", kScene + std::string("simulation:\n  inverse_interval_steps: 0\n"));
   REQUIRE_THROWS_WITH(ReadScene((dir / "scene.yaml").string()),
                       Catch::Contains("'inverse_interval_steps' must lie in [1, 50]") &&
