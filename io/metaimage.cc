@@ -225,6 +225,23 @@ void ReadData(const Header& header, Volume<T>* volume) {
   if (!raw) throw Error("cannot read MetaImage data file", raw_path, "check that it is readable");
 }
 
+template <typename T>
+void ReadGrid(const Header& header, Volume<T>* volume) {
+  const std::vector<double> size = header.Numbers("DimSize", 3);
+  const std::vector<double> spacing_mm = header.Numbers("ElementSpacing", 3);
+  const std::vector<double> origin_mm =
+      header.NumbersOr({"Offset", "Origin", "Position"}, {0, 0, 0});
+  for (int d = 0; d < 3; ++d) {
+    if (size[d] < 1 || size[d] != static_cast<int>(size[d])) {
+      header.Fail("DimSize", "sizes must be positive integers");
+    }
+    if (!(spacing_mm[d] > 0)) header.Fail("ElementSpacing", "spacings must be positive");
+    volume->size[d] = static_cast<int>(size[d]);
+    volume->spacing_m[d] = spacing_mm[d] / kMmPerM;
+    volume->origin_m[d] = origin_mm[d] / kMmPerM;
+  }
+}
+
 }  // namespace
 
 template <typename T>
@@ -271,24 +288,19 @@ void WriteMetaImage(const std::string& mhd_path, const Volume<T>& volume) {
   if (!raw) throw Error("cannot write MetaImage data", raw_path.string(), "check free space");
 }
 
+Volume<std::uint8_t> ReadMetaImageGrid(const std::string& mhd_path) {
+  const Header header(mhd_path);
+  Volume<std::uint8_t> grid;
+  ReadGrid(header, &grid);
+  return grid;
+}
+
 template <typename T>
 Volume<T> ReadMetaImage(const std::string& mhd_path) {
   const Header header(mhd_path);
   CheckSupported(header, ElementType<T>());
   Volume<T> volume;
-  const std::vector<double> size = header.Numbers("DimSize", 3);
-  const std::vector<double> spacing_mm = header.Numbers("ElementSpacing", 3);
-  const std::vector<double> origin_mm =
-      header.NumbersOr({"Offset", "Origin", "Position"}, {0, 0, 0});
-  for (int d = 0; d < 3; ++d) {
-    if (size[d] < 1 || size[d] != static_cast<int>(size[d])) {
-      header.Fail("DimSize", "sizes must be positive integers");
-    }
-    if (!(spacing_mm[d] > 0)) header.Fail("ElementSpacing", "spacings must be positive");
-    volume.size[d] = static_cast<int>(size[d]);
-    volume.spacing_m[d] = spacing_mm[d] / kMmPerM;
-    volume.origin_m[d] = origin_mm[d] / kMmPerM;
-  }
+  ReadGrid(header, &volume);
   ReadData(header, &volume);
   return volume;
 }

@@ -46,6 +46,11 @@ using VolumeF32 = Volume<float>;
 template <typename T>
 void WriteMetaImage(const std::string& mhd_path, const Volume<T>& volume);
 
+// A MetaImage's grid from its header alone (the voxels are not read), in
+// metres as Volume holds it; values stays empty.
+// @throws dg::Error as ReadMetaImage does for the header.
+Volume<std::uint8_t> ReadMetaImageGrid(const std::string& mhd_path);
+
 // Reads a 3-D single-channel MetaImage header (keys in any order; keys that
 // do not change the voxels, such as comments, ignored) and its uncompressed
 // data file. T must match the file's ElementType.

@@ -188,5 +188,46 @@ TEST_CASE("bad values: both eyes the same video, or the eyes exchanged, stop the
   }
 }
 
+// A CT whose spacing was written in metres (MetaImage states millimetres), or
+// whose origin puts the mesh outside it, is refused when the scene loads,
+// naming the CT and the likely cause: the overlays would otherwise sample
+// air, and the fiducials the registration finds in it would not be the mesh's.
+TEST_CASE("bad values: a CT grid in another unit or another frame than the mesh is refused at scene load",
+          "[faults][integration]") {
+  const std::string dir = dg::testing::TinyPhantomDir();
+  const io::Scene scene = io::ReadScene(dir + "/scene.yaml");
+  struct Case {
+    std::string name, key, value, expected;
+  };
+  for (const Case& c : {Case{"ct_in_metres", "ElementSpacing", "0.001 0.001 0.001", "in another unit"},
+                        Case{"ct_elsewhere", "Offset", "300 300 300", "outside the CT's grid"}}) {
+    INFO(c.name);
+    const fs::path copy = fs::path(dir) / c.name;
+    fs::remove_all(copy);
+    fs::copy(fs::path(dir) / "ct", copy, fs::copy_options::recursive);
+    for (const auto& entry : fs::directory_iterator(copy)) {
+      if (entry.path().extension() != ".mhd") continue;
+      std::ifstream in(entry.path());
+      std::string text, line;
+      while (std::getline(in, line)) text += (line.rfind(c.key + " =", 0) == 0 ? c.key + " = " + c.value : line) + "\n";
+      in.close();
+      std::ofstream(entry.path()) << text;
+    }
+    std::string text = scene.text;
+    const size_t at = text.find("ct: ct/");
+    REQUIRE(at != std::string::npos);
+    text.replace(at, 7, "ct: " + c.name + "/");
+    std::ofstream(dir + "/scene_" + c.name + ".yaml") << text;
+    tools::RunOptions options;
+    options.scene = dir + "/scene_" + c.name + ".yaml";
+    options.out_dir = FreshFolder(c.name).string();
+    options.video = false;
+    options.progress = false;
+    REQUIRE_THROWS_WITH(tools::RunScene(options), Contains(c.expected) && Contains(c.name + "/phase_00.mhd"));
+    REQUIRE(fs::is_empty(options.out_dir));
+    fs::remove_all(options.out_dir);
+  }
+}
+
 }  // namespace
 }  // namespace dg
