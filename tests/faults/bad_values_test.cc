@@ -32,6 +32,19 @@ fs::path FreshFolder(const std::string& name) {
   return folder;
 }
 
+// A run of the tiny phantom's scene as `text` gives it (written beside the
+// scene as scene_NAME.yaml) into a fresh folder, without video or progress.
+tools::RunOptions VariantRun(const std::string& name, const std::string& text) {
+  const std::string path = dg::testing::TinyPhantomDir() + "/scene_" + name + ".yaml";
+  std::ofstream(path) << text;
+  tools::RunOptions options;
+  options.scene = path;
+  options.out_dir = FreshFolder(name).string();
+  options.video = false;
+  options.progress = false;
+  return options;
+}
+
 // The tiny phantom's calibration (baseline a few millimetres, T in metres)
 // written again with T in millimetres, as a target measured in millimetres
 // makes OpenCV give it, and with T zero.
@@ -95,13 +108,7 @@ TEST_CASE("bad values: a mesh in millimetres read as metres is refused at scene 
   const size_t at = text.find("mesh.msh");
   REQUIRE(at != std::string::npos);
   text.replace(at, 8, "mesh_in_mm.msh");
-  std::ofstream(dir + "/scene_mesh_in_mm.yaml") << text;
-
-  tools::RunOptions options;
-  options.scene = dir + "/scene_mesh_in_mm.yaml";
-  options.out_dir = FreshFolder("mesh_in_mm").string();
-  options.video = false;
-  options.progress = false;
+  const tools::RunOptions options = VariantRun("mesh_in_mm", text);
   REQUIRE_THROWS_WITH(tools::RunScene(options), Contains("coordinates are probably in millimetres") &&
                                                     Contains("mesh_in_mm.msh") && Contains("units: mm"));
   REQUIRE(fs::is_empty(options.out_dir));
@@ -119,13 +126,7 @@ TEST_CASE("bad values: a simulation time step above the mesh's stable limit is r
   const size_t at = text.find("dt_s: 2.0e-4");
   REQUIRE(at != std::string::npos);
   text.replace(at, 12, "dt_s: 2.0e-3");
-  std::ofstream(dir + "/scene_large_dt.yaml") << text;
-
-  tools::RunOptions options;
-  options.scene = dir + "/scene_large_dt.yaml";
-  options.out_dir = FreshFolder("large_dt").string();
-  options.video = false;
-  options.progress = false;
+  const tools::RunOptions options = VariantRun("large_dt", text);
   REQUIRE_THROWS_WITH(tools::RunScene(options), Contains("simulation.dt_s: time step 2 ms exceeds") &&
                                                     Contains("critical time step") && Contains("highest mode") &&
                                                     Contains("set simulation.dt_s at or below") &&
@@ -136,10 +137,10 @@ TEST_CASE("bad values: a simulation time step above the mesh's stable limit is r
   // every frame's step is below the stable fraction (0.9 of dt_cr at the
   // phantom's nu = 0.45) and above half of it.
   text.replace(text.find("dt_s: 2.0e-3"), 12, "dt_s: 2.0e-3\n  time_step_policy: substep");
-  std::ofstream(dir + "/scene_large_dt.yaml") << text;
-  const tools::RunOutcome outcome = tools::RunScene(options);
+  const tools::RunOptions substepping = VariantRun("large_dt_substep", text);
+  const tools::RunOutcome outcome = tools::RunScene(substepping);
   REQUIRE(outcome.simulated_frames > 0);
-  const hid_t file = H5Fopen((options.out_dir + "/run.h5").c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+  const hid_t file = H5Fopen((substepping.out_dir + "/run.h5").c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
   REQUIRE(file >= 0);
   CHECK(testing::h5_plain::IntAttribute(file, "/", "complete") == 1);
   for (double ratio : testing::h5_plain::Doubles(file, "/sim/dt_over_dt_critical")) {
@@ -148,6 +149,7 @@ TEST_CASE("bad values: a simulation time step above the mesh's stable limit is r
   }
   H5Fclose(file);
   fs::remove_all(options.out_dir);
+  fs::remove_all(substepping.out_dir);
 }
 
 // The same video for both eyes, or the eyes exchanged, stop the run at frame
@@ -170,12 +172,7 @@ TEST_CASE("bad values: both eyes the same video, or the eyes exchanged, stop the
     std::string text = scene.text;
     text.replace(right, 22, "right: video/" + c.right);
     text.replace(left, 20, "left: video/" + c.left);
-    std::ofstream(dir + "/scene_" + c.name + ".yaml") << text;
-    tools::RunOptions options;
-    options.scene = dir + "/scene_" + c.name + ".yaml";
-    options.out_dir = FreshFolder(c.name).string();
-    options.video = false;
-    options.progress = false;
+    const tools::RunOptions options = VariantRun(c.name, text);
     INFO(c.name);
     REQUIRE_THROWS_WITH(tools::RunScene(options), Contains(c.expected) && Contains("frame 0") &&
                                                       Contains("video.left and video.right"));
@@ -217,12 +214,7 @@ TEST_CASE("bad values: a CT grid in another unit or another frame than the mesh 
     const size_t at = text.find("ct: ct/");
     REQUIRE(at != std::string::npos);
     text.replace(at, 7, "ct: " + c.name + "/");
-    std::ofstream(dir + "/scene_" + c.name + ".yaml") << text;
-    tools::RunOptions options;
-    options.scene = dir + "/scene_" + c.name + ".yaml";
-    options.out_dir = FreshFolder(c.name).string();
-    options.video = false;
-    options.progress = false;
+    const tools::RunOptions options = VariantRun(c.name, text);
     REQUIRE_THROWS_WITH(tools::RunScene(options), Contains(c.expected) && Contains(c.name + "/phase_00.mhd"));
     REQUIRE(fs::is_empty(options.out_dir));
     fs::remove_all(options.out_dir);
