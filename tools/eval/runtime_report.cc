@@ -111,7 +111,7 @@ std::string WriteRuntimeReport(const RuntimeResult& result, const std::string& o
   md +=
       "Design: one factor at a time around the baseline (the phantom's own mesh, dt 0.2 ms, 500 target "
       "features, 2 threads, float), plus a few combinations toward real time; not a full factorial. A time "
-      "step above the guard's limit is refused, not run (the run's coupled simulation cannot substep).\n\n";
+      "step above the guard's limit is refused, not run (substepping it would measure a smaller step).\n\n";
   md += (result.window_frames < 0
              ? std::string("No point has run yet. ")
              : Printed("Errors over the first %d simulated frames of every run (the protocol's window: --cycles "

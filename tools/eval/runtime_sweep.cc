@@ -90,6 +90,7 @@ void WritePointFile(const std::string& dir, const std::string& scene_name, const
   yaml << YAML::Key << "threads" << YAML::Value << plan.point.threads;
   yaml << YAML::Key << "precision" << YAML::Value << plan.point.precision;
   yaml << YAML::Key << "dt_critical_s" << YAML::Value << plan.dt_critical_s;
+  yaml << YAML::Key << "safety" << YAML::Value << plan.safety;
   yaml << YAML::Key << "refused" << YAML::Value << plan.refused;
   yaml << YAML::Key << "load_average" << YAML::Value << load_average;
   yaml << YAML::Key << "error" << YAML::Value << error;
@@ -124,6 +125,7 @@ PointFile ReadPointFile(const std::string& path) {
     plan.tets = yaml["tets"].as<int>();
     plan.nodes = yaml["nodes"].as<int>();
     plan.dt_critical_s = yaml["dt_critical_s"].as<double>();
+    plan.safety = yaml["safety"].as<double>();
     plan.refused = yaml["refused"].as<bool>();
     return file;
   } catch (const YAML::Exception& e) {
