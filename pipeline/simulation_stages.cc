@@ -67,12 +67,12 @@ std::shared_ptr<const SimulationSetup> LoadSimulationSetup(const io::Scene& scen
     for (int i = 0; i < 3; ++i) fixed_dofs.push_back(3 * a + i);
   }
   setup->stability = sim::EstimateStability(setup->mesh, setup->material, fixed_dofs);
-  const double safe_dt_s = sim::DefaultStabilitySafety(setup->material.poissons_ratio) * setup->stability.dt_critical_s;
+  const double safety = sim::DefaultStabilitySafety(setup->material.poissons_ratio);
+  const double safe_dt_s = safety * setup->stability.dt_critical_s;
   if (setup->options.dt_s > safe_dt_s) {
     char limit[32];
     std::snprintf(limit, sizeof limit, "%.4g ms", safe_dt_s * 1e3);
-    const std::string excess = setup->stability.TimeStepExcess(
-        setup->options.dt_s, sim::DefaultStabilitySafety(setup->material.poissons_ratio));
+    const std::string excess = setup->stability.TimeStepExcess(setup->options.dt_s, safety);
     if (setup->options.time_step_policy != "substep") {
       throw Error("simulation.dt_s: " + excess, scene.path,
                   "set simulation.dt_s at or below " + std::string(limit) +
