@@ -107,7 +107,8 @@ class CoupledSimulation {
   std::unique_ptr<TledSolver<T>> solver_;
   long long steps_ = 0;
 
-  std::unique_ptr<InverseSimulation<T>> inverse_;  // its levels span steps_ (LevelsAhead)
+  // Its newest level at step n: n / k + 1 at the start of an interval, n / k + 2 within one.
+  std::unique_ptr<InverseSimulation<T>> inverse_;
 };
 
 extern template class CoupledSimulation<float>;

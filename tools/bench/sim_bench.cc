@@ -213,11 +213,13 @@ sim::CoupledSimulation<T> MakeCoupled(const PhantomProblem& problem, sim::Simula
   return simulation;
 }
 
-// Advances `steps`, the constrained nodes reaching the motion model at the end.
+// Advances `steps`, the constrained nodes reaching the motion model at the
+// end (`motion` and `targets`: the caller's buffers, reused between calls).
 template <typename T>
-void AdvanceFollowingMotion(sim::CoupledSimulation<T>& simulation, int steps, std::vector<T>& motion) {
+void AdvanceFollowingMotion(sim::CoupledSimulation<T>& simulation, int steps, std::vector<T>& motion,
+                            std::vector<double>& targets) {
   simulation.MotionAtStep(simulation.steps_taken() + steps, motion);
-  std::vector<double> targets;
+  targets.clear();
   for (int a : simulation.constrained_nodes()) targets.insert(targets.end(), &motion[3 * a], &motion[3 * a] + 3);
   simulation.Advance(steps, targets);
 }
@@ -228,8 +230,9 @@ std::vector<double> MeasureCoupledRates(const PhantomProblem& problem, sim::Simu
   tbb::global_control parallelism(tbb::global_control::max_allowed_parallelism, threads);
   sim::CoupledSimulation<T> simulation = MakeCoupled<T>(problem, mode, concurrent, inverse_interval, options);
   std::vector<T> motion(3 * size_t(problem.mesh.num_nodes()));
+  std::vector<double> targets;
   return TimeRepeats(problem.mesh.num_tets(), StepsPerRepeat(options), options.repeats,
-                     [&](int steps) { AdvanceFollowingMotion(simulation, steps, motion); });
+                     [&](int steps) { AdvanceFollowingMotion(simulation, steps, motion, targets); });
 }
 
 // The largest node distance from the motion model over one cardiac period,
@@ -239,11 +242,12 @@ double MotionError(const PhantomProblem& problem, sim::SimulationMode mode, int 
                    const SimBenchOptions& options) {
   sim::CoupledSimulation<T> simulation = MakeCoupled<T>(problem, mode, true, inverse_interval, options);
   std::vector<T> motion(3 * size_t(problem.mesh.num_nodes()));
+  std::vector<double> targets;
   const long long period_steps = std::llround(problem.motion->period_s() / options.dt_s);
   const int frame_steps = std::max(1, static_cast<int>(std::lround(1.0 / 30.0 / options.dt_s)));
   double largest = 0;
   while (simulation.steps_taken() < period_steps) {
-    AdvanceFollowingMotion(simulation, frame_steps, motion);
+    AdvanceFollowingMotion(simulation, frame_steps, motion, targets);
     const std::span<const T> u = simulation.displacement();
     for (size_t a = 0; a < motion.size(); a += 3) {
       const double dx = double(u[a]) - motion[a], dy = double(u[a + 1]) - motion[a + 1],
