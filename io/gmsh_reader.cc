@@ -111,6 +111,7 @@ class LineReader {
   }
 
   std::string Where() const { return path_ + ":" + std::to_string(line_number_); }
+  int line_number() const { return line_number_; }
 
   [[noreturn]] void Fail(const std::string& what, const std::string& fix) const {
     throw Error(what, Where(), fix);
@@ -231,6 +232,8 @@ struct MshContent {
   std::vector<double> xyz;                                    // 3 per node, file order
   std::unordered_map<long long, int> node_id;                 // the file's tag -> id
   std::vector<int> tets;                                      // 4 node ids per tetrahedron
+  std::vector<long long> tet_tags;                            // the file's tag of each tetrahedron
+  std::vector<int> tet_lines;                                 // the line that first defines it
   std::unordered_map<long long, int> tet_of_tag;
   std::map<DimTag, Members> members;
   bool has_nodes = false;
@@ -394,6 +397,8 @@ void AddElement(const LineReader& in, const ElementType& type, long long tag, si
     tet = it->second;
     if (added) {
       content->tets.insert(content->tets.end(), ids.begin(), ids.end());
+      content->tet_tags.push_back(tag);
+      content->tet_lines.push_back(in.line_number());
     } else if (!std::equal(ids.begin(), ids.end(), content->tets.begin() + 4 * tet)) {
       in.Fail("element tag " + std::to_string(tag) + " is used by two different tetrahedra",
               "give every element its own tag, or " + kRegenerate);
@@ -548,6 +553,8 @@ sim::TetMesh ReadGmsh(const std::string& path, double metres_per_unit) {
   mesh.X_m = Eigen::Map<const Eigen::Matrix3Xd>(content.xyz.data(), 3, num_nodes) * metres_per_unit;
   mesh.tets =
       Eigen::Map<const Eigen::Matrix<int, 4, Eigen::Dynamic>>(content.tets.data(), 4, num_tets);
+  mesh.element_tags = std::move(content.tet_tags);
+  mesh.element_lines = std::move(content.tet_lines);
   AddSets(&content, &mesh);
   const int dropped = sim::RemoveUnusedNodes(&mesh);
   const int flipped = sim::OrientElements(&mesh, sim::Orientation::kReorient);

@@ -18,6 +18,8 @@ namespace dg::io {
 //   unnamed group is called "physical_<dim>_<tag>". Groups of different
 //   dimensions that share a name share one node set.
 // - Coordinates are multiplied by metres_per_unit (Gmsh files carry no unit).
+// - Each tetrahedron keeps the file's element tag and the line that defines it
+//   (element_tags, element_lines), so that messages name it as the file does.
 // - Elements are oriented positively (OrientElements with kReorient).
 //
 // @throws dg::Error for a missing file, malformed or truncated content (where

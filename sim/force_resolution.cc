@@ -115,11 +115,12 @@ WorstElement FindWorstElement(const TetMesh& mesh, const T* u) {
   return worst;
 }
 
-void ThrowDegenerateEdges(const WorstElement& worst, double min_volume_ratio, const std::string& when) {
-  char where[160];
-  std::snprintf(where, sizeof where, "element %d (volume ratio %.3g, below %.3g) in %s", worst.element,
-                worst.volume_ratio, min_volume_ratio, when.c_str());
-  throw Error("degenerate edge triple: recovered forces cannot be resolved in this element's edges", where,
+void ThrowDegenerateEdges(const TetMesh& mesh, const WorstElement& worst, double min_volume_ratio,
+                          const std::string& when) {
+  char ratio[96];
+  std::snprintf(ratio, sizeof ratio, " (volume ratio %.3g, below %.3g) in ", worst.volume_ratio, min_volume_ratio);
+  throw Error("degenerate edge triple: recovered forces cannot be resolved in this element's edges",
+              ElementName(mesh, worst.element) + ratio + when,
               "check or smooth the preoperative motion there (its registration may fold the mesh)");
 }
 
@@ -155,7 +156,7 @@ void ForceResolution<T>::Resolve(std::span<const T> u_model, std::span<const T> 
   });
   const T smallest = *std::min_element(chunk_min_ratio_.begin(), chunk_min_ratio_.end());
   if (!(smallest >= T(kMinVolumeRatio))) {
-    ThrowDegenerateEdges(FindWorstElement(model.mesh(), u_model.data()), kMinVolumeRatio,
+    ThrowDegenerateEdges(model.mesh(), FindWorstElement(model.mesh(), u_model.data()), kMinVolumeRatio,
                          "the motion model's geometry while running");
   }
 }
@@ -190,7 +191,7 @@ template <typename T>
 void ForceResolution<T>::CheckGeometry(std::span<const T> u, const std::string& when) const {
   DG_CHECK(u.size() == 3 * inverse_count_.size());
   const WorstElement worst = FindWorstElement(model_->mesh(), u.data());
-  if (!(worst.volume_ratio >= kMinVolumeRatio)) ThrowDegenerateEdges(worst, kMinVolumeRatio, when);
+  if (!(worst.volume_ratio >= kMinVolumeRatio)) ThrowDegenerateEdges(model_->mesh(), worst, kMinVolumeRatio, when);
 }
 
 template WorstElement FindWorstElement<float>(const TetMesh&, const float*);

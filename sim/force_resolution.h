@@ -20,8 +20,10 @@ template <typename T>
 WorstElement FindWorstElement(const TetMesh& mesh, const T* u);
 
 // The error for a geometry whose edge triples cannot carry weights: the worst
-// element in it, and `when` names the geometry (e.g. "motion model, phase 0.35").
-[[noreturn]] void ThrowDegenerateEdges(const WorstElement& worst, double min_volume_ratio, const std::string& when);
+// element of `mesh` in it (named as ElementName does), and `when` names the
+// geometry (e.g. "motion model, phase 0.35").
+[[noreturn]] void ThrowDegenerateEdges(const TetMesh& mesh, const WorstElement& worst, double min_volume_ratio,
+                                       const std::string& when);
 
 // Force resolution (paper eq. 5): a recovered nodal force r at node a, shared
 // equally by the n_a elements of a, is written in each element e as a

@@ -25,10 +25,9 @@ void ForEachChunk(int count, Body body) {
 template <typename T>
 [[noreturn]] void ThrowInvertedMotion(const TetMesh& mesh, const T* u) {
   const WorstElement worst = FindWorstElement(mesh, u);
-  char where[96];
-  std::snprintf(where, sizeof where, "element %d (J = %.3g) of the motion model's geometry", worst.element,
-                worst.volume_ratio);
-  throw Error("inverted element in the preoperative motion", where,
+  char at[64];
+  std::snprintf(at, sizeof at, " (J = %.3g) of the motion model's geometry", worst.volume_ratio);
+  throw Error("inverted element in the preoperative motion", ElementName(mesh, worst.element) + at,
               "check the motion model (scan registration) there, or smooth it");
 }
 
@@ -202,7 +201,7 @@ void InverseSimulation<T>::Finish() {
   if (!(*std::min_element(chunk_min_J_.begin(), chunk_min_J_.end()) > 0)) ThrowInvertedMotion(model_->layout_mesh(), u);
   constexpr double kMinRatio = ForceResolution<T>::kMinVolumeRatio;
   if (!(*std::min_element(chunk_min_ratio_.begin(), chunk_min_ratio_.end()) >= T(kMinRatio))) {
-    ThrowDegenerateEdges(FindWorstElement(model_->layout_mesh(), u), kMinRatio,
+    ThrowDegenerateEdges(model_->layout_mesh(), FindWorstElement(model_->layout_mesh(), u), kMinRatio,
                          "the motion model's geometry while running");
   }
   ++pending_level_;

@@ -13,10 +13,11 @@
 namespace dg::sim {
 namespace {
 
+// The element's name, and for a generated mesh its nodes (a file's line shows them already).
 std::string ElementWhere(const TetMesh& mesh, int e) {
-  return mesh.source + ", element " + std::to_string(e) + " (nodes " +
-         std::to_string(mesh.tets(0, e)) + " " + std::to_string(mesh.tets(1, e)) + " " +
-         std::to_string(mesh.tets(2, e)) + " " + std::to_string(mesh.tets(3, e)) + ")";
+  if (static_cast<int>(mesh.element_tags.size()) == mesh.num_tets()) return ElementName(mesh, e);
+  return ElementName(mesh, e) + " (nodes " + std::to_string(mesh.tets(0, e)) + " " + std::to_string(mesh.tets(1, e)) +
+         " " + std::to_string(mesh.tets(2, e)) + " " + std::to_string(mesh.tets(3, e)) + ")";
 }
 
 // The four faces of a tetrahedron, each wound outward for a positive element.
@@ -30,6 +31,15 @@ double SixSignedVolume(const TetMesh& mesh, int e) {
   const Eigen::Vector3d b = mesh.X_m.col(mesh.tets(2, e)) - x0;
   const Eigen::Vector3d c = mesh.X_m.col(mesh.tets(3, e)) - x0;
   return a.cross(b).dot(c);
+}
+
+std::string ElementName(const TetMesh& mesh, int e) {
+  if (static_cast<int>(mesh.element_tags.size()) != mesh.num_tets()) {
+    return mesh.source + ", element " + std::to_string(e) + " (0-based)";
+  }
+  const bool has_line = static_cast<int>(mesh.element_lines.size()) == mesh.num_tets() && mesh.element_lines[e] > 0;
+  return mesh.source + (has_line ? ":" + std::to_string(mesh.element_lines[e]) : std::string()) + ", element " +
+         std::to_string(mesh.element_tags[e]);
 }
 
 int OrientElements(TetMesh* mesh, Orientation policy) {

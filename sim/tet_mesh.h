@@ -20,6 +20,12 @@ struct TetMesh {
   std::map<std::string, std::vector<int>> node_sets;
   std::map<std::string, std::vector<int>> element_sets;
   std::string source;  // the file or generator it came from, for error messages
+  // Where each element came from, for messages only: the element's tag in
+  // the file and the file's line that defines it (0 where not known). Empty
+  // for a generated mesh. Kept beside the mesh so that internal renumbering
+  // (nodes; element order inside the model) never reaches a user's message.
+  std::vector<long long> element_tags;
+  std::vector<int> element_lines;
 
   int num_nodes() const { return static_cast<int>(X_m.cols()); }
   int num_tets() const { return static_cast<int>(tets.cols()); }
@@ -28,6 +34,11 @@ struct TetMesh {
 // Six times the signed volume of element e: positive when nodes 1, 2, 3 are
 // counter-clockwise seen from outside, i.e. (X1-X0) x (X2-X0) . (X3-X0) > 0.
 double SixSignedVolume(const TetMesh& mesh, int element);
+
+// Element e as a user finds it: "mesh.msh:42, element 17" with the file's tag
+// and line when the mesh was read from a file, else "<source>, element 5
+// (0-based)". Error paths only.
+std::string ElementName(const TetMesh& mesh, int element);
 
 enum class Orientation { kReorient, kReject };
 

@@ -22,6 +22,8 @@ TledModel<T>::TledModel(const TetMesh& mesh, const Material& material)
   layout_mesh_.X_m = mesh_.X_m;
   layout_mesh_.tets = mesh_.tets;
   layout_mesh_.source = mesh_.source;
+  layout_mesh_.element_tags = mesh_.element_tags;  // element ids are the mesh's in both
+  layout_mesh_.element_lines = mesh_.element_lines;
   layout_of_node_ = RenumberNodesForLocality(&layout_mesh_);
   node_of_layout_.resize(layout_of_node_.size());
   for (size_t a = 0; a < layout_of_node_.size(); ++a) node_of_layout_[layout_of_node_[a]] = static_cast<int>(a);

@@ -388,10 +388,10 @@ void TledSolver<T>::ThrowInversion(const T* u, long long step) const {
   }
   Eigen::Vector3d centroid_mm = Eigen::Vector3d::Zero();
   for (int c = 0; c < 4; ++c) centroid_mm += mesh.X_m.col(mesh.tets(c, worst)) * (1e3 / 4.0);
-  char where[200];
-  std::snprintf(where, sizeof where, "element %d (J = %.3g) at (%.2f, %.2f, %.2f) mm, %s", worst, worst_J,
-                centroid_mm.x(), centroid_mm.y(), centroid_mm.z(),
-                StepWhere(step, double(step) * internal_dt_s()).c_str());
+  char at[160];
+  std::snprintf(at, sizeof at, " (J = %.3g) at (%.2f, %.2f, %.2f) mm, %s", worst_J, centroid_mm.x(), centroid_mm.y(),
+                centroid_mm.z(), StepWhere(step, double(step) * internal_dt_s()).c_str());
+  const std::string where = ElementName(mesh, worst) + at;
   const double dt = internal_dt_s(), safe_dt = safety_ * stability_.dt_critical_s;
   if (dt > safe_dt) {
     // Run unchecked above the limit: the inversion is the scheme diverging, not the load.

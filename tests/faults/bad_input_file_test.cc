@@ -92,6 +92,40 @@ TEST_CASE("bad input: a FIFO, a device and a directory are refused before they a
   REQUIRE(FirstBinaryByte("a\tb\r\nc", 6) == 6);
 }
 
+// A flat (zero-volume) tetrahedron is named as the user finds it in the file:
+// its element tag and line, not the reader's 0-based index (here 1), in both
+// formats. Node and element tags are sparse, as Gmsh writes them after edits.
+TEST_CASE("bad input: a flat tetrahedron is named by the file's element tag and line", "[faults][unit]") {
+  const BadInputs inputs;
+  struct Case {
+    std::string name, text;
+    int line;
+  };
+  const Case cases[] = {
+      {"flat_v22.msh",
+       "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n5\n11 0 0 0\n12 1 0 0\n13 0 1 0\n14 0 0 1\n15 1 1 0\n"
+       "$EndNodes\n$Elements\n2\n5 4 2 1 1 11 12 13 14\n9 4 2 1 1 12 13 15 11\n$EndElements\n",
+       15},
+      {"flat_v41.msh",
+       "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n$Nodes\n1 5 11 15\n3 1 0 5\n11\n12\n13\n14\n15\n0 0 0\n1 0 0\n0 1 0\n"
+       "0 0 1\n1 1 0\n$EndNodes\n$Elements\n1 2 5 9\n3 1 4 2\n5 11 12 13 14\n9 12 13 15 11\n$EndElements\n",
+       22},
+  };
+  for (const Case& c : cases) {
+    INFO(c.name);
+    const std::string path = (inputs.folder / c.name).string();
+    std::ofstream(path) << c.text;
+    std::string where;
+    try {
+      ReadGmsh(path, 1.0);
+    } catch (const Error& error) {
+      CHECK_THAT(error.problem(), Contains("degenerate element (volume"));
+      where = error.where();
+    }
+    CHECK(where == path + ":" + std::to_string(c.line) + ", element 9");
+  }
+}
+
 // yaml-cpp keeps the first of two equal keys and drops the second silently.
 TEST_CASE("bad input: a key given twice in a scene is an error naming the second line", "[faults][unit]") {
   const BadInputs inputs;
