@@ -13,6 +13,7 @@
 #include "tests/support/tiny_phantom.h"
 #include "tests/support/window_errors.h"
 #include "tools/eval/protocol.h"
+#include "tools/run/run_job.h"
 
 namespace dg::tools {
 namespace {
@@ -27,6 +28,14 @@ testing::WindowErrors RecomputeRow(const std::string& log, int window) {
   const testing::WindowErrors row = testing::ReadWindowErrors(file, window);
   H5Fclose(file);
   return row;
+}
+
+// The lines of a text file.
+std::vector<std::string> Lines(const std::string& path) {
+  std::ifstream in(path);
+  std::vector<std::string> lines;
+  for (std::string line; std::getline(in, line);) lines.push_back(line);
+  return lines;
 }
 
 // table1.csv's row of a mode.
@@ -106,6 +115,48 @@ TEST_CASE("eval protocol: the tiny phantom in three modes, its tables recomputed
     for (std::string line; std::getline(list, line); ++lines) CHECK(line.rfind("dynaguide run ", 0) == 0);
     CHECK(lines == 3);  // one scene, three modes
   }
+}
+
+// `dynaguide report DIR` on a folder holding a single run (combined mode, the
+// tiny scene's): the modes it did not run are absent from the CSV files and
+// the JSON, and say "not run" in report.md, never a row of zeros; the mode
+// it ran keeps its figures, recomputed here from the log.
+TEST_CASE("eval protocol: a report of one run has no figures for the modes it did not run", "[tools][integration]") {
+  RunOptions run;
+  run.scene = dg::testing::TinyPhantomDir() + "/scene.yaml";
+  run.out_dir = dg::testing::TinyPhantomDir() + "/single/run";
+  run.threads = 2;
+  run.video = false;
+  run.progress = false;
+  RunScene(run);
+  const std::string out = dg::testing::TinyPhantomDir() + "/single_report";
+  const ProtocolResult result = ReadProtocolLogs(dg::testing::TinyPhantomDir() + "/single", 3);
+  WriteProtocolReport(result, out);
+  WriteProtocolJson(result, out + "/protocol.json");
+  REQUIRE(result.mode_ran == std::vector<bool>{false, false, true});
+
+  const std::vector<std::string> table1 = Lines(out + "/table1.csv");
+  REQUIRE(table1.size() == 2);  // the header and the combined mode's row
+  CHECK(table1[1].rfind("combined,", 0) == 0);
+  const testing::WindowErrors row = RecomputeRow(run.out_dir + "/run.h5", result.window_frames);
+  const std::vector<double> combined = CsvRow(out + "/table1.csv", "combined");
+  CHECK(combined[0] == Approx(row.surface_avg).margin(1e-6));
+  CHECK(combined[3] == Approx(row.internal_avg).margin(1e-6));
+  CHECK(row.surface_avg > 0);
+  CHECK(Lines(out + "/table2.csv").size() == 1);  // Table 2 is the volume mode's: the header alone
+
+  std::ifstream md_file(out + "/report.md");
+  const std::string md((std::istreambuf_iterator<char>(md_file)), std::istreambuf_iterator<char>());
+  CHECK_THAT(md, Catch::Contains("| surface | not run |") && Catch::Contains("| volume | not run |") &&
+                     Catch::Contains("Not run: Table 2 is the volume mode's"));
+  CHECK_THAT(md, !Catch::Contains("| surface | 0.00"));
+
+  std::ifstream json_file(out + "/protocol.json");
+  const std::string json((std::istreambuf_iterator<char>(json_file)), std::istreambuf_iterator<char>());
+  CHECK_THAT(json, Catch::Contains("\"mode\": \"combined\""));
+  CHECK_THAT(json, !Catch::Contains("\"mode\": \"surface\"") && !Catch::Contains("\"mode\": \"volume\""));
+  fs::remove_all(out);
+  fs::remove_all(dg::testing::TinyPhantomDir() + "/single");
 }
 
 }  // namespace dg::tools

@@ -123,6 +123,36 @@ void WritePlots(const ProtocolResult& result, const std::string& out_dir) {
   WriteLinePlot(internal, options, out_dir + "/fig2_internal.png");
 }
 
+// Table 2 from the volume mode's figures: the fiducials' errors beside the paper's.
+void AppendTable2(const ErrorFigures& volume, std::string* md_out, std::string* csv2) {
+  std::string& md = *md_out;
+  const size_t F = volume.fiducial_sim_avg_mm.size();
+  md += "| | ";
+  for (size_t i = 0; i < F; ++i) md += "fiducial " + std::to_string(i + 1) + " | ";
+  md += "average |\n|---|";
+  for (size_t i = 0; i <= F; ++i) md += "---:|";
+  md += "\n";
+  for (const auto& [label, values, paper] :
+       {std::tuple{"deformed scan", &volume.fiducial_model_avg_mm, &kPaperDeformed},
+        std::tuple{"volume", &volume.fiducial_sim_avg_mm, &kPaperVolume}}) {
+    md += std::string("| ") + label + " | ";
+    double sum = 0;
+    for (size_t i = 0; i < F; ++i) {
+      md += Fixed((*values)[i]) + (i < paper->size() ? " (" + Fixed((*paper)[i]) + ")" : "") + " | ";
+      sum += (*values)[i];
+    }
+    double paper_sum = 0;
+    for (double v : *paper) paper_sum += v;
+    md += Fixed(F ? sum / F : 0) + " (" + Fixed(paper_sum / paper->size()) + ") |\n";
+  }
+  for (size_t i = 0; i < F; ++i) {
+    *csv2 += std::to_string(i + 1) + "," + Fixed(volume.fiducial_model_avg_mm[i], 6) + "," +
+             Fixed(volume.fiducial_sim_avg_mm[i], 6) + "\n";
+  }
+  md += "\nDeformed scan: the scan's per-phase fiducial positions interpolated linearly in time at the registered "
+        "phase; volume: the fiducials embedded in the volume-mode simulation. Both through the run's registration.\n\n";
+}
+
 }  // namespace
 
 const std::vector<std::string>& ProtocolModes() {
@@ -190,7 +220,9 @@ ProtocolResult ReadProtocolLogs(const std::string& dir, double cycles) {
   }
   result.window_cycles = result.window_frames / (first.period_s * first.fps);
   for (const std::string& mode : ProtocolModes()) {
-    result.per_mode.push_back(Figures(RunsOfMode(result, mode), result.window_frames));
+    const std::vector<const RunErrors*> runs = RunsOfMode(result, mode);
+    result.mode_ran.push_back(!runs.empty());
+    result.per_mode.push_back(runs.empty() ? ErrorFigures{} : Figures(runs, result.window_frames));
   }
   return result;
 }
@@ -213,6 +245,10 @@ std::string WriteProtocolReport(const ProtocolResult& result, const std::string&
                      "realtime_factor,frames\n";
   for (size_t m = 0; m < ProtocolModes().size(); ++m) {
     const std::string& mode = ProtocolModes()[m];
+    if (!result.mode_ran[m]) {
+      md += "| " + mode + " | not run | | | | | | |\n";
+      continue;
+    }
     const ErrorFigures& f = result.per_mode[m];
     const PaperRow& paper = kPaperTable1.at(mode);
     std::vector<double> factors;
@@ -230,33 +266,14 @@ std::string WriteProtocolReport(const ProtocolResult& result, const std::string&
         "camera sees, where the overlay draws them against where they are, in mm at their depth; internal: the "
         "embedded internal points against their true positions in 3D.\n\n";
 
-  md += "## Table 2: fiducial errors (mm), averaged over the window\n\n| | ";
-  const ErrorFigures& volume = result.per_mode[1];
-  const size_t F = volume.fiducial_sim_avg_mm.size();
+  md += "## Table 2: fiducial errors (mm), averaged over the window\n\n";
   std::string csv2 = "fiducial,deformed_scan_mm,volume_mm\n";
-  for (size_t i = 0; i < F; ++i) md += "fiducial " + std::to_string(i + 1) + " | ";
-  md += "average |\n|---|";
-  for (size_t i = 0; i <= F; ++i) md += "---:|";
-  md += "\n";
-  for (const auto& [label, values, paper] :
-       {std::tuple{"deformed scan", &volume.fiducial_model_avg_mm, &kPaperDeformed},
-        std::tuple{"volume", &volume.fiducial_sim_avg_mm, &kPaperVolume}}) {
-    md += std::string("| ") + label + " | ";
-    double sum = 0;
-    for (size_t i = 0; i < F; ++i) {
-      md += Fixed((*values)[i]) + (i < paper->size() ? " (" + Fixed((*paper)[i]) + ")" : "") + " | ";
-      sum += (*values)[i];
-    }
-    double paper_sum = 0;
-    for (double v : *paper) paper_sum += v;
-    md += Fixed(F ? sum / F : 0) + " (" + Fixed(paper_sum / paper->size()) + ") |\n";
+  if (result.mode_ran[1]) {
+    AppendTable2(result.per_mode[1], &md, &csv2);
+  } else {
+    md += "Not run: Table 2 is the volume mode's, and no run log here is of that mode.\n\n";
   }
-  for (size_t i = 0; i < F; ++i) {
-    csv2 += std::to_string(i + 1) + "," + Fixed(volume.fiducial_model_avg_mm[i], 6) + "," +
-            Fixed(volume.fiducial_sim_avg_mm[i], 6) + "\n";
-  }
-  md += "\nDeformed scan: the scan's per-phase fiducial positions interpolated linearly in time at the registered "
-        "phase; volume: the fiducials embedded in the volume-mode simulation. Both through the run's registration.\n\n";
+
 
   md += "## Registration residuals (mean, mm at the fiducials' depth)\n\n| scene | mode | left | right |\n"
         "|---|---|---:|---:|\n";
@@ -280,7 +297,11 @@ std::string WriteProtocolReport(const ProtocolResult& result, const std::string&
 void WriteProtocolJson(const ProtocolResult& result, const std::string& path) {
   std::string json = "{\n  \"window_frames\": " + std::to_string(result.window_frames) +
                      ", \"window_cycles\": " + Fixed(result.window_cycles, 4) + ",\n  \"modes\": [\n";
+  std::vector<size_t> ran;  // a mode no run log is of has no entry: its figures do not exist
   for (size_t m = 0; m < ProtocolModes().size(); ++m) {
+    if (result.mode_ran[m]) ran.push_back(m);
+  }
+  for (size_t m : ran) {
     const ErrorFigures& f = result.per_mode[m];
     std::vector<double> factors;
     for (const RunErrors* run : RunsOfMode(result, ProtocolModes()[m])) factors.push_back(run->realtime_factor);
@@ -291,7 +312,7 @@ void WriteProtocolJson(const ProtocolResult& result, const std::string& path) {
                   "\"realtime_factor\": %.6g, \"frames\": %d}%s\n",
                   JsonQuoted(ProtocolModes()[m]).c_str(), f.surface_avg_mm, f.surface_max_mm, f.surface_rms_mm,
                   f.internal_avg_mm, f.internal_max_mm, f.internal_rms_mm, Median(factors), f.frames,
-                  m + 1 < ProtocolModes().size() ? "," : "");
+                  m != ran.back() ? "," : "");
     json += line;
   }
   json += "  ]\n}\n";

@@ -33,6 +33,9 @@ struct ProtocolResult {
   std::vector<std::string> scenes;      // names, in run order
   std::vector<RunErrors> runs;          // every run read back
   std::vector<ErrorFigures> per_mode;   // pooled over scenes, in ProtocolModes() order
+  // Whether any run log is of ProtocolModes()[m]: a directory may hold one
+  // run, and a mode without runs has no figures (per_mode[m] is empty, not zero).
+  std::vector<bool> mode_ran;
   int window_frames = 0;                // frames of each run's window
   double window_cycles = 0;             // the cycles they span (short of `cycles` when a video is)
 };
@@ -49,11 +52,13 @@ ProtocolResult ReadProtocolLogs(const std::string& dir, double cycles);
 
 // Writes report.md (Tables 1 and 2 beside the paper's, registration
 // residuals beside its 0.47 mm), table1.csv, table2.csv, fig2_surface.png and
-// fig2_internal.png (error against time per mode) into out_dir.
+// fig2_internal.png (error against time per mode) into out_dir. A mode no
+// run log is of says "not run" in report.md and has no row in the CSV files;
+// Table 2 (the volume mode's) likewise.
 // @returns the report's text. @throws dg::Error when a file cannot be written.
 std::string WriteProtocolReport(const ProtocolResult& result, const std::string& out_dir);
 
-// The JSON users script against: per mode surface_avg_mm,
+// The JSON users script against: for each mode that ran, surface_avg_mm,
 // surface_max_mm, surface_rms_mm, internal_avg_mm, internal_max_mm,
 // internal_rms_mm, realtime_factor (the runs' median).
 void WriteProtocolJson(const ProtocolResult& result, const std::string& path);
