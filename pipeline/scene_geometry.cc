@@ -1,5 +1,7 @@
 #include "pipeline/scene_geometry.h"
 
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <string>
 
@@ -8,6 +10,7 @@
 #include "io/metaimage.h"
 #include "sim/error.h"
 #include "stages/register/fiducial_motion.h"
+#include "stages/track/triangulator.h"
 
 namespace dg::pipeline {
 namespace {
@@ -23,6 +26,18 @@ constexpr double kGridMargin_m = 0.01, kLargestGridToMesh = 50;
 std::string Metres(double value_m) {
   char text[32];
   std::snprintf(text, sizeof text, "%.4g m", value_m);
+  return text;
+}
+
+// A unit slip is a factor of 1000 (millimetres for metres); a range merely
+// set too tight is off by less than this.
+constexpr double kUnitSlip = 100;
+
+// A depth range around the tissue's, for the fix: half its nearest depth to
+// twice its farthest, in two significant digits.
+std::string SuggestedRange(double nearest_m, double farthest_m) {
+  char text[64];
+  std::snprintf(text, sizeof text, "--near %.2g --far %.2g", 0.5 * nearest_m, 2 * farthest_m);
   return text;
 }
 
@@ -78,6 +93,54 @@ void CheckSceneGeometry(const io::Scene& scene, const sim::TetMesh& mesh) {
                     "): the scan and the mesh are not in one frame or one unit",
                 scene.preoperative->motion + " (through " + scene.path + ")",
                 "give the mesh and scan.h5 of one preoperative CT, both in metres (mesh: {units: ...} for the mesh)");
+  }
+}
+
+std::vector<double> DepthsInCamera(const Eigen::Matrix4d& T_C_S, const Eigen::Matrix3Xd& points_S_m) {
+  const Eigen::RowVectorXd z = T_C_S.block<1, 3>(2, 0) * points_S_m;
+  std::vector<double> depths_m(z.data(), z.data() + z.size());
+  for (double& depth : depths_m) depth += T_C_S(2, 3);
+  return depths_m;
+}
+
+void CheckWorkingDistance(const std::vector<double>& depths_m, const std::string& what,
+                          const io::StereoCalibration& rectified, double near_m, double far_m, const std::string& where,
+                          const std::string& unit_fix) {
+  if (depths_m.empty()) return;
+  const auto [lowest, highest] = std::minmax_element(depths_m.begin(), depths_m.end());
+  const double nearest_m = *lowest, farthest_m = *highest;
+  const std::string tissue = what + " lie at " + Metres(nearest_m) + " to " + Metres(farthest_m) + " from the camera";
+  if (!(nearest_m > 0) || !std::isfinite(farthest_m)) {
+    throw Error(what + " lie at depths " + Metres(nearest_m) + " to " + Metres(farthest_m) +
+                    ": behind the camera, or not finite",
+                where, unit_fix);
+  }
+  const std::string range = "the stereo matcher's depth range (--near " + Metres(near_m) + ", --far " +
+                            Metres(far_m) + ")";
+  if (nearest_m < near_m || farthest_m > far_m) {
+    if (near_m > kUnitSlip * farthest_m) {
+      throw Error(tissue + ", far nearer than " + range + ": --near and --far are probably in millimetres", where,
+                  "give them in metres, e.g. " + SuggestedRange(nearest_m, farthest_m));
+    }
+    if (nearest_m > kUnitSlip * far_m) {
+      throw Error(tissue + ", far beyond " + range + ": these depths are probably in millimetres", where, unit_fix);
+    }
+    throw Error(tissue + ", outside " + range + ": stereo matching would not find the tissue there", where,
+                "widen the range around the tissue, e.g. " + SuggestedRange(nearest_m, farthest_m));
+  }
+  // The disparity f B / z: under a pixel, stereo measures no depth; wider
+  // than the image, the two eyes do not both see the tissue.
+  const stages::Triangulator geometry(rectified);
+  const double width_px = rectified.left.width, widest_px = geometry.DisparityAtDepth(nearest_m),
+               narrowest_px = geometry.DisparityAtDepth(farthest_m);
+  char disparity[160];
+  std::snprintf(disparity, sizeof disparity, "the calibration's baseline %.4g m gives a disparity of %.3g to %.3g px",
+                rectified.T_m.norm(), narrowest_px, widest_px);
+  if (widest_px >= width_px || narrowest_px < 1) {
+    throw Error(tissue + ", where " + disparity + (narrowest_px < 1 ? ", under one pixel" : ", wider than the image") +
+                    ": the baseline is implausible for that distance (a stereo endoscope's is a few millimetres, "
+                    "at a few centimetres), so one of the two is probably in another unit",
+                where, "check the calibration's T is in metres, and " + unit_fix);
   }
 }
 

@@ -2,6 +2,7 @@
 
 #include "io/h5_file.h"
 #include "pipeline/front_end_stages.h"
+#include "pipeline/scene_geometry.h"
 #include "sim/error.h"
 
 namespace dg::pipeline {
@@ -60,6 +61,28 @@ std::unique_ptr<PacketStage> MakeRegisterStage(const io::Scene& scene, const io:
                                            first, settings.near_m, settings.far_m);
 }
 
+// The scene's own registration places the tissue before a frame is read: the
+// scan's fiducials (else the mesh) through it, against the depth range.
+void CheckGivenPose(const io::Scene& scene, const io::Registration& given, const io::StereoCalibration& rectified,
+                    const SimulationSetup* simulation, const FrontEndSettings& settings) {
+  Eigen::Matrix3Xd points_S_m;
+  std::string what;
+  if (scene.preoperative) {
+    const stages::FiducialMotion fiducials = stages::ReadFiducialMotion(scene.preoperative->motion);
+    if (fiducials.num_phases() > 0) points_S_m = fiducials.positions_S_m.front();
+    what = "the scan's fiducials, placed by registration.file,";
+  }
+  if (points_S_m.cols() == 0 && simulation) {
+    points_S_m = simulation->mesh.X_m;
+    what = "the mesh's nodes, placed by registration.file,";
+  }
+  if (points_S_m.cols() == 0) return;
+  CheckWorkingDistance(DepthsInCamera(given.T_C_S, points_S_m), what, rectified,
+                       settings.near_m, settings.far_m, scene.registration->file + " (through " + scene.path + ")",
+                       "write the registration's T_C_S with its translation in metres (divide it by 1000 if it is "
+                       "in millimetres)");
+}
+
 }  // namespace
 
 SceneGraph BuildSceneGraph(const io::Scene& scene, const GraphOptions& options, const FrontEndSettings& settings,
@@ -113,6 +136,9 @@ SceneGraph BuildSceneGraph(const io::Scene& scene, const GraphOptions& options, 
     }
     stages.push_back(std::make_unique<ConstraintAdapter>(built.simulation, built.given_registration));
     stages.push_back(std::make_unique<FemAdapter>(built.simulation, built.overlays));
+  }
+  if (built.given_registration) {
+    CheckGivenPose(with_defaults, *built.given_registration, built.calibration, built.simulation.get(), settings);
   }
   if (eyes.left) stages.push_back(std::make_unique<CompositeAdapter>(eyes.left, eyes.right));
   built.graph = std::make_unique<StageGraph>(std::move(source), std::move(stages), options,

@@ -50,8 +50,9 @@ struct SceneGraph {
 // @throws dg::Error for unreadable inputs, a calibration of another image
 // size than the video, a rectified recording whose calibration has no
 // rectification (P1, P2), a depth range that OptionsForDepthRange refuses,
-// registration without the scan's fiducials or their first-frame pixels, or
-// a simulation the scene's mesh or motion cannot run.
+// registration without the scan's fiducials or their first-frame pixels, a
+// given registration that places the tissue outside the depth range
+// (CheckWorkingDistance), or a simulation the scene's mesh or motion cannot run.
 SceneGraph BuildSceneGraph(const io::Scene& scene, const GraphOptions& options, const FrontEndSettings& settings = {},
                            const OverlaySettings& overlays = {});
 

@@ -1,5 +1,6 @@
 #include "pipeline/simulation_stages.h"
 
+#include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <cstdio>
@@ -28,21 +29,67 @@ const std::vector<int>& NodeSet(const sim::TetMesh& mesh, const std::string& nam
 RegisterAdapter::RegisterAdapter(const stages::RegistrationStage::Options& options, stages::FiducialMotion motion,
                                  const io::StereoCalibration& calibration, double period_s,
                                  const std::vector<Eigen::Vector2d>& first_uv_left_px, double near_m, double far_m)
-    : geometry_(calibration),
+    : calibration_(calibration),
+      near_m_(near_m),
+      far_m_(far_m),
+      first_phase_fiducials_S_m_(motion.positions_S_m.empty() ? Eigen::Matrix3Xd() : motion.positions_S_m.front()),
+      geometry_(calibration),
       tracker_(stages::StartFiducialTracker(geometry_, first_uv_left_px, near_m, far_m)),
-      stage_(options, std::move(motion), calibration, period_s) {}
+      stage_(options, std::move(motion), calibration, period_s) {
+  for (const Eigen::Vector2d& uv : first_uv_left_px) {
+    Eigen::Vector2d uv_R(-1, -1);
+    geometry_.LeftToRectified(uv, &uv_R);  // StartFiducialTracker refused a pixel outside the field
+    first_uv_left_R_px_.emplace_back(static_cast<float>(uv_R.x()), static_cast<float>(uv_R.y()));
+  }
+}
+
+void RegisterAdapter::CheckFirstFrameDepths(const FramePacket& packet,
+                                            const std::vector<stages::FiducialObservation>& seen) const {
+  // Fiducials the range did not match are searched along the whole row once:
+  // found there, their depth is measured, and it lies outside the range.
+  if (std::all_of(seen.begin(), seen.end(), [](const stages::FiducialObservation& o) { return o.valid; })) return;
+  stages::StereoMatcher::Options whole_row;
+  whole_row.min_disparity_px = 0;
+  whole_row.max_disparity_px = packet.rectified.left.cols - 1;
+  const std::vector<stages::StereoMatch> matches =
+      stages::StereoMatcher(whole_row).Match(packet.rectified.left, packet.rectified.right, first_uv_left_R_px_);
+  std::vector<double> depths_m;
+  bool outside = false;
+  for (size_t i = 0; i < seen.size(); ++i) {
+    const Eigen::Vector2d uv(first_uv_left_R_px_[i].x, first_uv_left_R_px_[i].y);
+    if (seen[i].valid) {
+      depths_m.push_back(geometry_.Triangulate(uv, seen[i].uv_left_R_px.x - seen[i].uv_right_R_px.x).z());
+    } else if (matches[i].valid && matches[i].disparity_px > 0) {
+      depths_m.push_back(geometry_.Triangulate(uv, matches[i].disparity_px).z());
+      outside = true;
+    }
+  }
+  if (!outside) return;
+  CheckWorkingDistance(depths_m, "the fiducials, matched in the first stereo pair,", calibration_, near_m_, far_m_,
+                       "stage 'register', frame " + std::to_string(packet.index),
+                       "check the calibration (its T in metres) is the camera's that recorded the video");
+}
 
 void RegisterAdapter::Process(FramePacket& packet) {
   if (!result_) {
+    const std::vector<stages::FiducialObservation> seen =
+        tracker_.Process(packet.rectified.left, packet.rectified.right);
+    if (first_frame_) CheckFirstFrameDepths(packet, seen);
+    first_frame_ = false;
     std::vector<stages::FiducialSighting> sightings;
-    for (const stages::FiducialObservation& seen : tracker_.Process(packet.rectified.left, packet.rectified.right)) {
-      sightings.push_back(stages::SightingFromRectified(seen, geometry_));
+    for (const stages::FiducialObservation& observation : seen) {
+      sightings.push_back(stages::SightingFromRectified(observation, geometry_));
     }
     if (stage_.Process(packet.t_s, std::move(sightings))) {
       result_ = std::make_shared<const io::Registration>(stage_.Solve().registration);
       Logger("register").info("registered at frame {}: phase shift {:.2f} ms, residual {:.3f} / {:.3f} px",
                                packet.index, 1e3 * result_->phase_shift_s, result_->left.mean_px,
                                result_->right.mean_px);
+      // The pose places the scan: its fiducials' depths, before any frame is simulated with it.
+      CheckWorkingDistance(DepthsInCamera(result_->T_C_S, first_phase_fiducials_S_m_),
+                           "the scan's fiducials, placed by the registration,", calibration_, near_m_, far_m_,
+                           "stage 'register', frame " + std::to_string(packet.index),
+                           "check the scan's fiducials are in metres (scan.h5 /phases/fiducials_S_m)");
     }
   }
   packet.registration = result_;

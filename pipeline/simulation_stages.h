@@ -29,6 +29,10 @@ class OverlayBranch;
 // (FiducialTracker, from their first-frame pixels) over the window, solves
 // once on the frame that completes it (that frame waits for the solution),
 // and hands the result to that frame and every later one. Stateful.
+// The tissue's depth is checked against the depth range (CheckWorkingDistance)
+// where it is first known: at the first frame, for fiducials that match only
+// outside the range (a range in the wrong unit finds none, and the
+// registration would blame their tracking), and at the solution.
 class RegisterAdapter final : public PacketStage {
  public:
   // first_uv_left_px: the fiducials' pixels in the first left frame (original,
@@ -43,7 +47,16 @@ class RegisterAdapter final : public PacketStage {
   void Process(FramePacket& packet) override;
 
  private:
+  // @throws dg::Error (CheckWorkingDistance) when the first frame sees a
+  // fiducial only outside the depth range.
+  void CheckFirstFrameDepths(const FramePacket& packet, const std::vector<stages::FiducialObservation>& seen) const;
+
   std::string name_ = "register";
+  io::StereoCalibration calibration_;
+  double near_m_, far_m_;
+  std::vector<cv::Point2f> first_uv_left_R_px_;  // the fiducials' first pixels, rectified (unset: outside the field)
+  Eigen::Matrix3Xd first_phase_fiducials_S_m_;   // the scan's fiducials at phase 0
+  bool first_frame_ = true;
   stages::Triangulator geometry_;
   stages::FiducialTracker tracker_;
   stages::RegistrationStage stage_;

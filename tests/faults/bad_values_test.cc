@@ -2,15 +2,19 @@
 // "unexpected error": each is refused with what, where and a fix.
 #include <unistd.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
+#include <regex>
 #include <string>
+#include <vector>
 
 #include <catch2/catch.hpp>
 
 #include "io/calibration.h"
 #include "io/gmsh_mesher.h"
 #include "io/gmsh_reader.h"
+#include "io/registration_file.h"
 #include "io/scene.h"
 #include "sim/error.h"
 #include "sim/stability.h"
@@ -43,6 +47,23 @@ tools::RunOptions VariantRun(const std::string& name, const std::string& text) {
   options.video = false;
   options.progress = false;
   return options;
+}
+
+// The depths "lie at A m to B m" a working-distance error names, or {-1, -1}.
+std::pair<double, double> NamedDepths(const std::string& message) {
+  std::smatch match;
+  if (!std::regex_search(message, match, std::regex("lie at ([-0-9.e+]+) m to ([-0-9.e+]+) m"))) return {-1, -1};
+  return {std::stod(match[1]), std::stod(match[2])};
+}
+
+// The message of the dg::Error a run throws ("" when it throws none).
+std::string RunError(const tools::RunOptions& options) {
+  try {
+    tools::RunScene(options);
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return {};
 }
 
 // The tiny phantom's calibration (baseline a few millimetres, T in metres)
@@ -219,6 +240,96 @@ TEST_CASE("bad values: a CT grid in another unit or another frame than the mesh 
     REQUIRE(fs::is_empty(options.out_dir));
     fs::remove_all(options.out_dir);
   }
+}
+
+// A depth range given in millimetres (--near 30 --far 300) matches no
+// fiducial; the run used to register nothing and blame their tracking. The
+// first stereo pair measures the fiducials' depth along the whole row, and
+// the run stops at frame 0 naming the depths, which agree with the truth's,
+// the unit, and a range in metres that holds them.
+TEST_CASE("bad values: a depth range in millimetres is refused at the first frame, naming the tissue's depth",
+          "[faults][integration]") {
+  const std::string dir = dg::testing::TinyPhantomDir();
+  tools::RunOptions options = VariantRun("range_in_mm", io::ReadScene(dir + "/scene.yaml").text);
+  options.front_end.near_m = 30;
+  options.front_end.far_m = 300;
+  const std::string message = RunError(options);
+  INFO(message);
+  CHECK_THAT(message, Contains("the fiducials, matched in the first stereo pair,") && Contains("frame 0") &&
+                          Contains("--near and --far are probably in millimetres") && Contains("in metres, e.g. --near"));
+  // The truth's depths of the fiducials the left camera sees in frame 0.
+  const hid_t truth = H5Fopen((dir + "/truth.h5").c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+  REQUIRE(truth >= 0);
+  const std::vector<double> xyz = testing::h5_plain::Doubles(truth, "/fiducials/xyz_C_m");
+  const std::vector<double> visible = testing::h5_plain::Doubles(truth, "/fiducials/visible_left");
+  H5Fclose(truth);
+  const size_t fiducials = xyz.size() / 3 / 30;
+  REQUIRE(visible.size() == 30 * fiducials);
+  double true_nearest = 1e9, true_farthest = 0;
+  for (size_t i = 0; i < fiducials; ++i) {
+    if (visible[i] == 0) continue;
+    true_nearest = std::min(true_nearest, xyz[3 * i + 2]);
+    true_farthest = std::max(true_farthest, xyz[3 * i + 2]);
+  }
+  REQUIRE(true_farthest > 0);
+  // Triangulated at 8-10 px of disparity, where a tenth of a pixel is under a
+  // millimetre. The farthest marker's match at 160x120 is 1.2 px short (the
+  // tracker's own match in range is the same), 11 mm of depth there.
+  const auto [nearest, farthest] = NamedDepths(message);
+  CHECK(nearest == Approx(true_nearest).margin(1e-3));
+  CHECK(farthest == Approx(true_farthest).margin(0.012));
+  CHECK(nearest <= farthest);
+  std::smatch fix;
+  REQUIRE(std::regex_search(message, fix, std::regex("--near ([0-9.e+-]+) --far ([0-9.e+-]+)")));
+  CHECK(std::stod(fix[1]) < true_nearest);
+  CHECK(std::stod(fix[2]) > true_farthest);
+  fs::remove_all(options.out_dir);
+}
+
+// The scene's own registration, its translation written in millimetres,
+// puts the tissue a thousand times too far: refused when the scene loads,
+// before a frame is read, naming the registration file and the depths of
+// the scan's fiducials through it (here recomputed from the truth's pose).
+TEST_CASE("bad values: a given registration in millimetres is refused at scene load, naming its depths",
+          "[faults][integration]") {
+  const std::string dir = dg::testing::TinyPhantomDir();
+  const io::Scene scene = io::ReadScene(dir + "/scene.yaml");
+  const hid_t truth = H5Fopen((dir + "/truth.h5").c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+  REQUIRE(truth >= 0);
+  const std::vector<double> T = testing::h5_plain::Doubles(truth, "/T_C_S");  // row-major 4x4
+  const std::vector<double> X_S = testing::h5_plain::Doubles(truth, "/fiducials/X_S_m");
+  io::Registration registration;
+  for (int r = 0; r < 4; ++r) {
+    for (int c = 0; c < 4; ++c) registration.T_C_S(r, c) = T[4 * r + c];
+  }
+  registration.phase_shift_s = testing::h5_plain::Doubles(truth, "/phase_shift_s").at(0);
+  registration.period_s = testing::h5_plain::Doubles(truth, "/period_s").at(0);
+  H5Fclose(truth);
+  registration.T_C_S.topRightCorner<3, 1>() *= 1000;
+  io::WriteRegistrationYaml(dir + "/pose_in_mm.yaml", registration);
+  std::string text = scene.text;
+  const size_t at = text.find("registration:\n  cycles: 1");
+  REQUIRE(at != std::string::npos);
+  text.replace(at, 25, "registration:\n  file: pose_in_mm.yaml");
+  const tools::RunOptions options = VariantRun("pose_in_mm", text);
+  const std::string message = RunError(options);
+  INFO(message);
+  CHECK_THAT(message, Contains("the scan's fiducials, placed by registration.file,") &&
+                          Contains("these depths are probably in millimetres") && Contains("pose_in_mm.yaml") &&
+                          Contains("translation in metres"));
+  double nearest_mm = 1e9, farthest_mm = 0;  // depths through the pose in millimetres, in "metres"
+  for (size_t i = 0; i + 2 < X_S.size(); i += 3) {
+    const double z = T[8] * X_S[i] + T[9] * X_S[i + 1] + T[10] * X_S[i + 2] + 1000 * T[11];
+    nearest_mm = std::min(nearest_mm, z);
+    farthest_mm = std::max(farthest_mm, z);
+  }
+  // The scan's fiducials are the beads found in its CT, within a voxel (1 mm)
+  // of the truth's; the message gives four digits (0.01 here).
+  const auto [nearest, farthest] = NamedDepths(message);
+  CHECK(nearest == Approx(nearest_mm).margin(0.011));
+  CHECK(farthest == Approx(farthest_mm).margin(0.011));
+  CHECK(fs::is_empty(options.out_dir));
+  fs::remove_all(options.out_dir);
 }
 
 }  // namespace
