@@ -12,6 +12,9 @@
 #include "tests/support/h5_plain.h"
 #include "tests/support/tiny_phantom.h"
 #include "tests/support/window_errors.h"
+#include "io/h5_file.h"
+#include "io/registration_file.h"
+#include "io/scene.h"
 #include "tools/eval/protocol.h"
 #include "tools/run/run_job.h"
 
@@ -122,8 +125,21 @@ TEST_CASE("eval protocol: the tiny phantom in three modes, its tables recomputed
 // the JSON, and say "not run" in report.md, never a row of zeros; the mode
 // it ran keeps its figures, recomputed here from the log.
 TEST_CASE("eval protocol: a report of one run has no figures for the modes it did not run", "[tools][integration]") {
+  // The truth's registration, as the protocol test gives it: the tables, not the registration, are under test.
+  const std::string dir = dg::testing::TinyPhantomDir();
+  const io::H5Reader truth(dir + "/truth.h5");
+  io::Registration registration;
+  registration.T_C_S = truth.ReadMatrix("/T_C_S");
+  registration.phase_shift_s = truth.ReadScalar("/phase_shift_s");
+  registration.period_s = truth.ReadScalar("/period_s");
+  io::WriteRegistrationYaml(dir + "/single_registration.yaml", registration);
+  std::string text = io::ReadScene(dir + "/scene.yaml").text;
+  const size_t at = text.find("registration:\n  cycles: 1");
+  REQUIRE(at != std::string::npos);
+  text.replace(at, 25, "registration:\n  file: single_registration.yaml");
+  std::ofstream(dir + "/scene_single.yaml") << text;
   RunOptions run;
-  run.scene = dg::testing::TinyPhantomDir() + "/scene.yaml";
+  run.scene = dir + "/scene_single.yaml";
   run.out_dir = dg::testing::TinyPhantomDir() + "/single/run";
   run.threads = 2;
   run.video = false;
