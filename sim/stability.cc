@@ -50,11 +50,13 @@ std::string StabilityReport::Describe() const {
   std::snprintf(text, sizeof text,
                 "critical time step %.4g ms (assembled mesh, omega_max %.4g rad/s, highest mode "
                 "largest at node %d (%.1f, %.1f, %.1f) mm; Lanczos %d iterations, residual %.1e); "
-                "per-element bound %.4g ms (element %d)",
+                "per-element bound %.4g ms",
                 dt_critical_s * 1e3, omega_max_rad_s, limiting_node, limiting_node_position_m.x() * 1e3,
                 limiting_node_position_m.y() * 1e3, limiting_node_position_m.z() * 1e3,
-                lanczos_iterations, relative_residual, dt_element_bound_s * 1e3, limiting_element);
-  return text;
+                lanczos_iterations, relative_residual, dt_element_bound_s * 1e3);
+  const std::string element =
+      limiting_element_name.empty() ? "element " + std::to_string(limiting_element) : limiting_element_name;
+  return std::string(text) + " (" + element + ")";
 }
 
 std::string StabilityReport::TimeStepExcess(double dt_s, double safety) const {
@@ -84,6 +86,7 @@ StabilityReport EstimateStabilityOnce(const TetMesh& mesh, const Material& mater
     }
   }
   report.dt_element_bound_s = smallest_altitude / c;
+  report.limiting_element_name = ElementName(mesh, report.limiting_element);
 
   // A = M^-1/2 K M^-1/2 on the free degrees of freedom.
   Eigen::VectorXd inv_sqrt_mass(n), free = Eigen::VectorXd::Ones(n);

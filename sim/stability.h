@@ -26,6 +26,7 @@ struct StabilityReport {
   double dt_critical_s = 0;        // 2 / omega_max
   double dt_element_bound_s = 0;   // min_e L_e / c
   int limiting_element = -1;       // the element setting the per-element bound
+  std::string limiting_element_name;  // as the user finds it (ElementName: the file's tag and line)
   int limiting_node = -1;          // where the highest mode has its largest amplitude
   Eigen::Vector3d limiting_node_position_m = Eigen::Vector3d::Zero();
   int lanczos_iterations = 0;

@@ -16,7 +16,7 @@ namespace {
 // The element's name, and for a generated mesh its nodes (a file's line shows them already).
 std::string ElementWhere(const TetMesh& mesh, int e) {
   if (static_cast<int>(mesh.element_tags.size()) == mesh.num_tets()) return ElementName(mesh, e);
-  return ElementName(mesh, e) + " (nodes " + std::to_string(mesh.tets(0, e)) + " " + std::to_string(mesh.tets(1, e)) +
+  return mesh.source + ", " + ElementName(mesh, e) + " (nodes " + std::to_string(mesh.tets(0, e)) + " " + std::to_string(mesh.tets(1, e)) +
          " " + std::to_string(mesh.tets(2, e)) + " " + std::to_string(mesh.tets(3, e)) + ")";
 }
 
@@ -35,7 +35,7 @@ double SixSignedVolume(const TetMesh& mesh, int e) {
 
 std::string ElementName(const TetMesh& mesh, int e) {
   if (static_cast<int>(mesh.element_tags.size()) != mesh.num_tets()) {
-    return mesh.source + ", element " + std::to_string(e) + " (0-based)";
+    return "element " + std::to_string(e);
   }
   const bool has_line = static_cast<int>(mesh.element_lines.size()) == mesh.num_tets() && mesh.element_lines[e] > 0;
   return mesh.source + (has_line ? ":" + std::to_string(mesh.element_lines[e]) : std::string()) + ", element " +

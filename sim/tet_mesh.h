@@ -36,8 +36,8 @@ struct TetMesh {
 double SixSignedVolume(const TetMesh& mesh, int element);
 
 // Element e as a user finds it: "mesh.msh:42, element 17" with the file's tag
-// and line when the mesh was read from a file, else "<source>, element 5
-// (0-based)". Error paths only.
+// and line when the mesh was read from a file, else "element 5" (its 0-based
+// id in a generated mesh). Error paths only.
 std::string ElementName(const TetMesh& mesh, int element);
 
 enum class Orientation { kReorient, kReject };
