@@ -42,7 +42,7 @@ struct FramePacket {
   std::int64_t sequence = 0;  // 0, 1, 2, ... in the order the source filled packets (gap-free)
   std::int64_t index = 0;     // the video frame (gaps where frames were dropped)
   double t_s = 0;             // the frame's time in the recording
-  std::int64_t captured_ns = 0;  // when the source started on it (run clock), for latency
+  std::int64_t captured_ns = 0;  // when the source started on it (run clock; in real time, the frame's arrival), for latency
   int dropped_before = 0;        // frames the realtime policy dropped just before this one
 
   stages::StereoFrame raw;          // as captured, BGR

@@ -31,6 +31,7 @@ const char* PolicyName(Policy policy) { return policy == Policy::kOffline ? "off
 
 std::string GraphOptions::Validate() const {
   if (max_in_flight < 1) return "at least one frame must be allowed in flight";
+  if (capture_buffer_frames < 1) return "the capture buffer must hold at least one frame";
   if (first_frame < 0) return "the first frame must not be negative";
   if (end_frame >= 0 && end_frame <= first_frame) return "the frame range is empty";
   if (!drop_frames.empty() && policy == Policy::kRealtime) {
@@ -273,24 +274,31 @@ class StageGraph::Runner {
 
   bool AtEnd() const { return plan_.options_.end_frame >= 0 && position_ >= plan_.options_.end_frame; }
 
-  // Realtime: the frame the camera shows now, counted from the first frame
-  // of the range at the start of the run; frames older than it are dropped,
-  // and a frame not yet due is waited for.
+  // Realtime: the camera delivers frame `first + n` at n / fps on the video
+  // clock (started with the first frame). Frames more than the capture buffer
+  // behind the newest delivered one are lost; a frame not yet delivered is
+  // waited for. Returns the frames lost.
   int PaceToVideoClock() {
-    if (video_clock_start_ns_ < 0) video_clock_start_ns_ = NowNs();  // the first frame is live now
+    if (video_clock_start_ns_ < 0) video_clock_start_ns_ = NowNs();  // the first frame arrives now
     const double fps = plan_.source_->fps();
     const std::int64_t first = plan_.options_.first_frame;
     const double video_s = (NowNs() - video_clock_start_ns_) * 1e-9;
-    const std::int64_t live = first + static_cast<std::int64_t>(std::floor(video_s * fps));
+    const std::int64_t newest = first + static_cast<std::int64_t>(std::floor(video_s * fps));
+    const std::int64_t oldest_held = newest - plan_.options_.capture_buffer_frames + 1;
     int dropped = 0;
-    while (position_ < live && !AtEnd() && plan_.source_->Skip()) {
+    while (position_ < oldest_held && !AtEnd() && plan_.source_->Skip()) {
       ++position_;
       ++dropped;
     }
-    const double due_s = (position_ - first) / fps;
-    const double wait_s = due_s - (NowNs() - video_clock_start_ns_) * 1e-9;
+    const double wait_s = (ArrivalNs() - NowNs()) * 1e-9;
     if (wait_s > 0) std::this_thread::sleep_for(std::chrono::duration<double>(wait_s));
     return dropped;
+  }
+
+  // Realtime: when the frame at the current position arrived (or arrives) on the run clock.
+  std::int64_t ArrivalNs() const {
+    const double due_s = (position_ - plan_.options_.first_frame) / plan_.source_->fps();
+    return video_clock_start_ns_ + static_cast<std::int64_t>(std::llround(due_s * 1e9));
   }
 
   // Offline: the frames the options name to drop, from the current position on.
@@ -311,9 +319,12 @@ class StageGraph::Runner {
       source_ended_ = true;
       return false;
     }
-    const int dropped = plan_.options_.policy == Policy::kRealtime ? PaceToVideoClock() : SkipFramesToDrop();
-    // After pacing: waiting for a frame to be due is neither capture's work nor the frame's latency.
-    const std::int64_t start = NowNs();
+    const bool realtime = plan_.options_.policy == Policy::kRealtime;
+    const int dropped = realtime ? PaceToVideoClock() : SkipFramesToDrop();
+    // Offline, capture starts after pacing. In real time it starts when the
+    // camera delivered the frame, so the source's span and the frame's
+    // latency include the time it waited in the capture buffer.
+    const std::int64_t start = realtime ? std::min(ArrivalNs(), NowNs()) : NowNs();
     bool read = false;
     packet.ResetFor(next_sequence_);
     Guard(plan_.source_->name(), packet, position_, [&] { read = !AtEnd() && plan_.source_->Read(packet); });

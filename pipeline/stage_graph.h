@@ -28,6 +28,13 @@ struct GraphOptions {
   // the latency to about two frames; a third only queues (on the default
   // phantom: the same offline rate, and 30 ms more latency in real time).
   int max_in_flight = 2;
+  // Realtime only: frames the camera's capture queue holds until the graph
+  // takes them (a V4L2 driver queues 2 to 4; OpenCV's V4L2 backend asks for
+  // 4). A frame is lost only once this many newer frames have arrived, so a
+  // single slow frame (the first detection, the registration's solve) costs
+  // latency, not frames. 1 keeps only the newest frame. A frame's latency
+  // counts from its arrival, so the time it waits here is never hidden.
+  int capture_buffer_frames = 3;
   std::int64_t first_frame = 0;  // frames before it are skipped
   std::int64_t end_frame = -1;   // one past the last frame; -1: to the end of the recording
   // Offline only: frames the source skips as the realtime policy skips the

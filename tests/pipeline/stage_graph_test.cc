@@ -8,6 +8,7 @@
 #include <atomic>
 #include <chrono>
 #include <fstream>
+#include <map>
 #include <random>
 #include <set>
 #include <thread>
@@ -308,6 +309,77 @@ TEST_CASE("graph: realtime drops when a stage is too slow, and logs every drop",
   REQUIRE(std::vector<std::int64_t>(accounted.begin(), accounted.end()) == Range(0, frames));
   REQUIRE(std::is_sorted(outcome.sink.frames.begin(), outcome.sink.frames.end()));
   REQUIRE(max_in_flight.load() <= options.max_in_flight);
+}
+
+// A camera at 5 frames per second (periods long against scheduling noise)
+// whose frame 1 takes 2.5 periods to process, as a first detection does.
+class SlowCamera final : public PacketSource {
+ public:
+  static constexpr double kFps = 5;
+  const std::string& name() const override { return name_; }
+  bool Read(FramePacket& packet) override {
+    if (next_ == kFrames) return false;
+    packet.index = next_++;
+    return true;
+  }
+  bool Skip() override { return next_ < kFrames ? (++next_, true) : false; }
+  double fps() const override { return kFps; }
+  int frame_count() const override { return kFrames; }
+  static constexpr int kFrames = 6;
+
+ private:
+  std::string name_ = "capture";
+  std::int64_t next_ = 0;
+};
+
+class SlowOnceStage final : public PacketStage {
+ public:
+  const std::string& name() const override { return name_; }
+  bool stateful() const override { return true; }
+  void Process(FramePacket& packet) override {
+    if (packet.index == 1) std::this_thread::sleep_for(std::chrono::duration<double>(2.5 / SlowCamera::kFps));
+  }
+
+ private:
+  std::string name_ = "slow once";
+};
+
+struct LatencySink final : GraphSink {
+  void Consume(const FramePacket& packet) override { frames.push_back(packet.index); }
+  void RecordTimings(std::span<const StageTiming> timings) override {
+    latency_s[timings.front().frame] = (timings.back().end_ns - timings.front().start_ns) * 1e-9;
+  }
+  void RecordDrop(std::int64_t frame, std::int64_t) override { drops.push_back(frame); }
+  std::vector<std::int64_t> frames, drops;
+  std::map<std::int64_t, double> latency_s;
+};
+
+// One slow frame costs latency, not frames, while the capture buffer holds
+// the frames that arrive behind it; with a buffer of one the frame that
+// arrived during the slow one is lost. The latency counts from arrival.
+TEST_CASE("graph: realtime's capture buffer absorbs one slow frame", "[pipeline][integration]") {
+  const double period_s = 1 / SlowCamera::kFps;
+  auto run = [](int buffer) {
+    GraphOptions options;
+    options.policy = Policy::kRealtime;
+    options.max_in_flight = 1;
+    options.capture_buffer_frames = buffer;
+    std::vector<std::unique_ptr<PacketStage>> stages;
+    stages.push_back(std::make_unique<SlowOnceStage>());
+    StageGraph graph(std::make_unique<SlowCamera>(), std::move(stages), options);
+    LatencySink sink;
+    REQUIRE(graph.Run(sink).complete);
+    return sink;
+  };
+  const LatencySink buffered = run(3);
+  REQUIRE(buffered.drops.empty());
+  REQUIRE(buffered.frames == Range(0, SlowCamera::kFrames));
+  // Frame 2 arrived at 2 periods and waited until frame 1 was done at 3.5.
+  REQUIRE(buffered.latency_s.at(2) >= 1.4 * period_s);
+  REQUIRE(buffered.latency_s.at(2) < 2.0 * period_s);
+  // Frame 1 ends at 3.5 periods, when frame 3 (3 periods) is the newest: frame 2 is gone.
+  const LatencySink newest_only = run(1);
+  REQUIRE(newest_only.drops == std::vector<std::int64_t>{2});
 }
 
 TEST_CASE("graph: a failing stage stops the graph, naming stage and frame", "[pipeline][integration]") {

@@ -96,6 +96,10 @@ void AddRunCommand(CLI::App& app) {
   command->add_option("--in-flight", args->options.graph.max_in_flight, "Frames in flight at most")
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
+  command->add_option("--capture-buffer", args->options.graph.capture_buffer_frames,
+                      "Realtime: frames the capture queue holds before the oldest is lost")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
   command->add_option("--near", args->options.front_end.near_m, "Nearest depth stereo matching searches, metres")
       ->capture_default_str();
   command->add_option("--far", args->options.front_end.far_m, "Farthest depth stereo matching searches, metres")
