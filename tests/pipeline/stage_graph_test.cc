@@ -24,6 +24,7 @@
 #include "sim/error.h"
 #include "stages/fem_stage.h"
 #include "stages/rectify.h"
+#include "tests/support/h5_plain.h"
 #include "tests/support/tiny_phantom.h"
 
 namespace dg::pipeline {
@@ -194,8 +195,13 @@ TEST_CASE("graph: built with exactly the stages the scene needs", "[pipeline][in
   }
 
   SECTION("a scene that gives the registration has no register stage") {
-    io::Registration registration;
+    io::Registration registration;  // the truth's pose: the working-distance check places the scan with it
     registration.period_s = scene.preoperative->period_s;
+    const hid_t truth = H5Fopen((TinyPhantomDir() + "/truth.h5").c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+    REQUIRE(truth >= 0);
+    const std::vector<double> T_C_S = testing::h5_plain::Doubles(truth, "/T_C_S");
+    H5Fclose(truth);
+    registration.T_C_S = Eigen::Map<const Eigen::Matrix<double, 4, 4, Eigen::RowMajor>>(T_C_S.data());
     io::WriteRegistrationYaml(TinyPhantomDir() + "/registration.yaml", registration);
     const io::Scene given = SceneFromText(
         "scene_registered.yaml", WithoutBlock(scene.text, "registration") + "registration:\n  file: registration.yaml\n");
