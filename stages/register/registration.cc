@@ -6,6 +6,7 @@
 #include <memory>
 
 #include <ceres/ceres.h>
+#include <fmt/format.h>
 #include <Eigen/Geometry>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core/eigen.hpp>
@@ -25,6 +26,14 @@ constexpr const char* kWhere = "registration";
 // sightings gross outliers: (1 - 0.67^5)^50 < 1e-3. Wrong shifts have few
 // inliers and would otherwise spend OpenCV's full default budget.
 constexpr int kRansacIterations = 50;
+
+// Blocks of the window the jackknife leaves out in turn: each solution keeps
+// five sixths of it (two and a half of the default three cycles).
+constexpr int kJackknifeBlocks = 6;
+
+std::string Mm(double m) { return fmt::format("{:.2f}", 1e3 * m); }
+std::string Px(double px) { return fmt::format("{:.2f}", px); }
+std::string Percent(double fraction) { return fmt::format("{:.0f}%", 100 * fraction); }
 
 // One sighting in one eye.
 struct Observation {
@@ -274,6 +283,128 @@ io::ReprojectionStats Statistics(const Problem& problem, const Pose& pose, int e
   return s;
 }
 
+// The assignment of tracks to scan fiducials that explains the tracks (said
+// when it is not the order given), or a refusal naming why there is none.
+FiducialAssignment ChooseAssignment(const FiducialMotion& motion, const io::StereoCalibration& calibration,
+                                    const FiducialTracks& tracks, const RegistrationOptions& options) {
+  FiducialAssignment assignment = AssignFiducials(motion, calibration, tracks, options.assignment_tolerance_px);
+  const std::string tolerance = Px(options.assignment_tolerance_px);
+  switch (assignment.verdict) {
+    case FiducialAssignment::Verdict::kGiven:
+      break;
+    case FiducialAssignment::Verdict::kReassigned:
+      Logger("stages").warn(
+          "registration: the first-frame pixels are not in the scan's fiducial order: {} (their mean positions fit "
+          "the scan's to {} px in that order, {} px in the order given); registering with the order that fits",
+          DescribeDepartures(assignment.scan_of_track), Px(assignment.rms_px), Px(assignment.given_rms_px));
+      break;
+    case FiducialAssignment::Verdict::kNoneFits: {
+      const std::vector<double>& departure = assignment.track_departure_px;
+      const auto worst = std::max_element(departure.begin(), departure.end());
+      throw Error("the tracked markers fit the scan's fiducials in no order: their mean positions are " +
+                      Px(assignment.rms_px) + " px rms from the scan's under the best pose (at most " + tolerance +
+                      " px)" +
+                      (*worst > 0 ? ", and track " + std::to_string(worst - departure.begin()) + " departs " +
+                                        Px(*worst) + " px from the pose the others fit"
+                                  : std::string()),
+                  kWhere,
+                  "check the first-frame fiducial pixels (registration.fiducials_uv): each must be on its marker's "
+                  "centre, not beside it; and that the calibration is this endoscope's");
+    }
+    case FiducialAssignment::Verdict::kAmbiguous:
+      throw Error("the first-frame pixels are not in the scan's fiducial order (a fit of " +
+                      Px(assignment.given_rms_px) + " px, at most " + tolerance +
+                      " px wanted), and more than one other order fits (" + Px(assignment.rms_px) + " and " +
+                      Px(assignment.runner_up_rms_px) + " px)",
+                  kWhere,
+                  "give the pixels in the scan's fiducial order (registration.fiducials_uv): the markers are placed "
+                  "too symmetrically to tell apart by their layout");
+  }
+  return assignment;
+}
+
+// Whether two solutions are different minima rather than one reached twice.
+bool Distinct(const Pose& a, const Pose& b, double period_s, int phases) {
+  const Eigen::Vector3d ra = Eigen::Map<const Eigen::Vector3d>(a.rotation), rb = Eigen::Map<const Eigen::Vector3d>(b.rotation);
+  const auto rotation = [](const Eigen::Vector3d& v) {
+    return v.norm() > 0 ? Eigen::AngleAxisd(v.norm(), v.normalized()).toRotationMatrix() : Eigen::Matrix3d::Identity();
+  };
+  const double angle_rad = Eigen::AngleAxisd(rotation(ra).transpose() * rotation(rb)).angle();
+  const double translation_m =
+      (Eigen::Map<const Eigen::Vector3d>(a.translation_m) - Eigen::Map<const Eigen::Vector3d>(b.translation_m)).norm();
+  const double shift = a.shift_s - b.shift_s;
+  const double shift_s = std::abs(shift - period_s * std::round(shift / period_s));
+  return angle_rad > 1.0 * M_PI / 180 || translation_m > 1e-3 || shift_s > 0.5 * period_s / phases;
+}
+
+// The window's frames in `blocks` consecutive blocks by time; the jackknife
+// leaves each out in turn.
+int BlockOf(double t_s, double t0_s, double window_s, int blocks) {
+  return std::min(blocks - 1, static_cast<int>(std::floor((t_s - t0_s) / window_s * blocks)));
+}
+
+// Ceres' covariance assumes independent residuals. The window's are not: a
+// beat that departs from the scan's motion (a longer period, a deeper
+// breath) leaves errors correlated over whole cycles, and the covariance
+// then claims far more than the window holds. The delete-a-block jackknife
+// over consecutive blocks of the window sees that departure as spread
+// between the blocks' solutions. Each parameter's variance is raised to the
+// jackknife's where that is larger (a congruence: the matrix stays positive
+// semi-definite and keeps Ceres' correlations).
+Eigen::Matrix<double, 7, 7> JackknifeInflated(const Problem& problem, const Pose& best, const Eigen::Matrix<double, 7, 7>& covariance,
+                                              double t0_s, double window_s, const RegistrationOptions& options) {
+  const int blocks = kJackknifeBlocks;
+  std::vector<Refined> solutions(blocks);
+  tbb::parallel_for(0, blocks, [&](int b) {
+    Problem without{problem.motion, problem.period_s, problem.eyes, {}};
+    for (const Observation& o : problem.observations) {
+      if (BlockOf(o.t_s, t0_s, window_s, blocks) != b) without.observations.push_back(o);
+    }
+    solutions[b] = Refine(without, best, options);
+  });
+  Eigen::Matrix<double, 7, Eigen::Dynamic> theta(7, blocks);
+  for (int b = 0; b < blocks; ++b) {
+    if (!std::isfinite(solutions[b].cost)) return covariance;  // a block the window cannot spare: Ceres' alone
+    const Pose& p = solutions[b].pose;
+    theta.col(b) << p.rotation[0], p.rotation[1], p.rotation[2], p.translation_m[0], p.translation_m[1],
+        p.translation_m[2], p.shift_s;
+  }
+  const Eigen::Matrix<double, 7, Eigen::Dynamic> centred = theta.colwise() - theta.rowwise().mean();
+  const Eigen::Matrix<double, 7, 7> jackknife = (blocks - 1.0) / blocks * centred * centred.transpose();
+  Eigen::Matrix<double, 7, 1> scale;
+  for (int i = 0; i < 7; ++i) scale[i] = std::sqrt(std::max(1.0, jackknife(i, i) / covariance(i, i)));
+  return scale.asDiagonal() * covariance * scale.asDiagonal();
+}
+
+// Refuses a solution the tracks do not support, naming the figure and the likely cause.
+void CheckSolution(const RegistrationResult& result, const RegistrationOptions& options) {
+  const io::Registration& r = result.registration;
+  const int kept = r.left.observations + r.right.observations;
+  const int outliers = r.left.outliers + r.right.outliers;
+  const double outlier_fraction = double(outliers) / std::max(1, kept + outliers);
+  const char* tracks_fix =
+      "check the first-frame fiducial pixels (registration.fiducials_uv): each must be on its marker, in the scan's "
+      "fiducial order; and that the calibration is this endoscope's";
+  if (outlier_fraction > options.max_outlier_fraction) {
+    throw Error("the registration leaves " + std::to_string(outliers) + " of " + std::to_string(kept + outliers) +
+                    " fiducial sightings over " + Px(options.outlier_px) + " px from the scan's motion (at most " +
+                    Percent(options.max_outlier_fraction) + " allowed): the tracks do not follow the scan's fiducials",
+                kWhere, tracks_fix);
+  }
+  const double rms_px = std::max(r.left.rms_px, r.right.rms_px);
+  if (rms_px > options.max_rms_px) {
+    throw Error("the registration's residuals are " + Px(rms_px) + " px rms (at most " + Px(options.max_rms_px) +
+                    " px for tracked markers): the scan's motion does not explain the tracks",
+                kWhere, tracks_fix);
+  }
+  if (result.runner_up_cost_ratio < options.min_runner_up_ratio) {
+    throw Error("the registration is not unique: another pose and phase shift explain the tracks nearly as well (cost " +
+                    Px(result.runner_up_cost_ratio) + " times the best's, at least " +
+                    Px(options.min_runner_up_ratio) + " wanted)",
+                kWhere, "register over more cycles (registration.cycles), or mark more fiducials spread over the surface");
+  }
+}
+
 }  // namespace
 
 std::string RegistrationOptions::Validate() const {
@@ -282,6 +413,10 @@ std::string RegistrationOptions::Validate() const {
   if (!(robust_scale_px > 0)) return "robust_scale_px must be positive";
   if (!(outlier_px > robust_scale_px)) return "outlier_px must exceed robust_scale_px";
   if (max_iterations < 1) return "max_iterations must be at least 1";
+  if (!(assignment_tolerance_px > 0)) return "assignment_tolerance_px must be positive";
+  if (!(max_rms_px > 0)) return "max_rms_px must be positive";
+  if (!(max_outlier_fraction >= 0 && max_outlier_fraction < 1)) return "max_outlier_fraction must lie in [0, 1)";
+  if (!(min_runner_up_ratio >= 1)) return "min_runner_up_ratio must be at least 1";
   return {};
 }
 
@@ -289,11 +424,13 @@ RegistrationResult RegisterScanToVideo(const FiducialMotion& motion, const io::S
                                        double period_s, const FiducialTracks& tracks,
                                        const RegistrationOptions& options) {
   CheckInput(motion, period_s, tracks, options);
-  const Problem problem{motion, period_s, {EyeModel::Left(calibration), EyeModel::Right(calibration)}, Flatten(tracks)};
+  RegistrationResult result;
+  result.assignment = ChooseAssignment(motion, calibration, tracks, options);
+  const Problem problem{motion, period_s, {EyeModel::Left(calibration), EyeModel::Right(calibration)},
+                        Flatten(Reordered(tracks, result.assignment.scan_of_track))};
 
   // Global search over one period: the cost has a basin per phase-sized step.
   const int n = options.search_steps_per_phase * motion.num_phases();
-  RegistrationResult result;
   result.search_shift_s.resize(n);
   result.search_cost.assign(n, std::numeric_limits<double>::infinity());
   std::vector<Pose> starts(n);
@@ -318,6 +455,12 @@ RegistrationResult RegisterScanToVideo(const FiducialMotion& motion, const io::S
     throw Error("the joint refinement failed from every candidate", kWhere,
                 "check the calibration and that the tracks follow the scan's fiducials");
   }
+  result.runner_up_cost_ratio = std::numeric_limits<double>::infinity();
+  for (const Refined& other : refined) {
+    if (std::isfinite(other.cost) && Distinct(other.pose, best.pose, period_s, motion.num_phases())) {
+      result.runner_up_cost_ratio = std::min(result.runner_up_cost_ratio, other.cost / best.cost);
+    }
+  }
 
   io::Registration& r = result.registration;
   Eigen::Isometry3d T_C_S = Eigen::Isometry3d::Identity();
@@ -328,7 +471,8 @@ RegistrationResult RegisterScanToVideo(const FiducialMotion& motion, const io::S
   r.period_s = period_s;
   r.phase_shift_s = best.pose.shift_s - period_s * std::floor(best.pose.shift_s / period_s);
   const double frame_s = (tracks.t_s.back() - tracks.t_s.front()) / double(tracks.t_s.size() - 1);
-  r.cycles = (tracks.t_s.back() - tracks.t_s.front() + frame_s) / period_s;
+  const double window_s = tracks.t_s.back() - tracks.t_s.front() + frame_s;
+  r.cycles = window_s / period_s;
   r.left = Statistics(problem, best.pose, 0, options.outlier_px);
   r.right = Statistics(problem, best.pose, 1, options.outlier_px);
   // Ceres' covariance is (J^T J)^-1 for unit-variance residuals: scaled by the
@@ -340,8 +484,11 @@ RegistrationResult RegisterScanToVideo(const FiducialMotion& motion, const io::S
   r.covariance = UnitCovariance(problem, best.pose, options) * variance_px2;
   if (!r.covariance.allFinite()) {
     Logger("stages").warn("registration: the covariance is rank deficient (too few distinct fiducial positions?)");
+  } else {
+    r.covariance = JackknifeInflated(problem, best.pose, r.covariance, tracks.t_s.front(), window_s, options);
   }
   result.iterations = best.iterations;
+  CheckSolution(result, options);
   return result;
 }
 
@@ -350,6 +497,12 @@ void WriteRegistrationLog(const RegistrationResult& result, io::H5Writer* file, 
   const io::H5Shape shape = {result.search_shift_s.size()};
   file->Write(group + "/search/shift_s", result.search_shift_s.data(), shape);
   file->Write(group + "/search/cost_px2", result.search_cost.data(), shape);
+  const std::vector<std::int32_t> scan_of_track(result.assignment.scan_of_track.begin(),
+                                                result.assignment.scan_of_track.end());
+  file->Write(group + "/assignment/scan_fiducial_of_track", scan_of_track.data(), {scan_of_track.size()});
+  file->WriteScalar(group + "/assignment/fit_rms_px", result.assignment.rms_px);
+  file->WriteScalar(group + "/assignment/given_order_rms_px", result.assignment.given_rms_px);
+  file->WriteScalar(group + "/runner_up_cost_ratio", result.runner_up_cost_ratio);
 }
 
 }  // namespace dg::stages

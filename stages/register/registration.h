@@ -7,26 +7,15 @@
 
 #include "io/calibration.h"
 #include "io/registration_file.h"
+#include "stages/register/fiducial_assignment.h"
 #include "stages/register/fiducial_motion.h"
+#include "stages/register/fiducial_tracks.h"
 
 namespace dg::io {
 class H5Writer;
 }
 
 namespace dg::stages {
-
-// One fiducial in one video frame, in each eye's original (distorted) pixels.
-struct FiducialSighting {
-  bool in_left = false, in_right = false;
-  Eigen::Vector2d uv_left_px = Eigen::Vector2d::Zero(), uv_right_px = Eigen::Vector2d::Zero();
-};
-
-// The registration window: frame times t_s[j] (video time, seconds) and the
-// sightings frames[j][i] of fiducial i, in the scan's fiducial order.
-struct FiducialTracks {
-  std::vector<double> t_s;
-  std::vector<std::vector<FiducialSighting>> frames;
-};
 
 struct RegistrationOptions {
   // The global search tries this many phase shifts per scan phase, evenly
@@ -38,11 +27,32 @@ struct RegistrationOptions {
   double outlier_px = 10.0;       // residuals above it are outliers: not in PnP's consensus nor in the statistics
   int max_iterations = 100;
 
+  // The registration checks itself and refuses rather than report a
+  // confident wrong answer (docs/registration.md):
+  // the markers' mean positions fitting the scan's within this (rms, left
+  // image) explain the tracks (the fiducial assignment's test);
+  double assignment_tolerance_px = 1.5;
+  // kept residuals with an rms above it: the motion does not explain the
+  // tracks, and the robust fit no longer tells inliers from outliers (half of
+  // outlier_px; the phantom's tracked markers give 0.5 px, the paper's real
+  // phantom a mean of 0.47 mm, a few pixels at an endoscope's distance);
+  double max_rms_px = 5.0;
+  // more of the sightings than this beyond outlier_px: the tracks follow something else;
+  double max_outlier_fraction = 0.3;
+  // another distinct minimum within this factor of the best's cost: not unique.
+  double min_runner_up_ratio = 1.5;
+
   std::string Validate() const;  // empty when valid
 };
 
 struct RegistrationResult {
   io::Registration registration;
+  // Which scan fiducial each track follows: the order given, unless another
+  // assignment explains the tracks and the given one does not.
+  FiducialAssignment assignment;
+  // The best distinct local minimum after the winner (its cost over the
+  // winner's; infinite when every candidate converged to the winner).
+  double runner_up_cost_ratio = 0;
   // The global search's profile: robust cost (px^2) after PnP at each shift.
   std::vector<double> search_shift_s, search_cost;
   int iterations = 0;  // of the joint refinement that won

@@ -1,11 +1,13 @@
 #include "tools/register/register_run.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
 
 #include <Eigen/Geometry>
+#include <fmt/format.h>
 
 #include "io/calibration.h"
 #include "io/registration_file.h"
@@ -163,6 +165,19 @@ std::string RegisterReport(const RegisterRunSummary& summary) {
                   s->outliers);
     text += line;
   }
+  const stages::FiducialAssignment& a = summary.result.assignment;
+  const double worst_departure_px =
+      a.track_departure_px.empty() ? 0 : *std::max_element(a.track_departure_px.begin(), a.track_departure_px.end());
+  text += fmt::format(
+      "self-check: the markers' mean positions fit the scan's to {:.2f} px, the farthest track {:.2f} px from the "
+      "pose the others fit ({}); the next distinct minimum costs {}\n",
+      a.rms_px, worst_departure_px,
+      a.verdict == stages::FiducialAssignment::Verdict::kReassigned
+          ? "reassigned: " + stages::DescribeDepartures(a.scan_of_track)
+          : std::string("in the order given"),
+      std::isfinite(summary.result.runner_up_cost_ratio)
+          ? fmt::format("{:.3g}x the best's", summary.result.runner_up_cost_ratio)
+          : std::string("nothing (every candidate reached the best)"));
   std::snprintf(line, sizeof line, "uncertainty (1 sigma): rotation %.4f deg, translation %.4f mm, phase shift %.3f ms\n",
                 r.rotation_sigma_deg(), r.translation_sigma_mm(), r.phase_shift_sigma_ms());
   text += line;
@@ -191,9 +206,14 @@ void WriteRegisterJson(const std::string& path, const RegisterRunSummary& summar
   json += "  " + StatsJson("left", r.left) + ",\n  " + StatsJson("right", r.right) + ",\n";
   std::snprintf(line, sizeof line,
                 "  \"rotation_sigma_deg\": %.6g, \"translation_sigma_mm\": %.6g, \"phase_shift_sigma_ms\": %.6g,\n"
-                "  \"track_ms\": %.4g, \"solve_ms\": %.4g, \"fiducials_from\": %s",
+                "  \"track_ms\": %.4g, \"solve_ms\": %.4g, \"fiducials_from\": %s,\n"
+                "  \"markers_fit_px\": %.6g, \"markers_reassigned\": %s, \"runner_up_cost_ratio\": %s",
                 r.rotation_sigma_deg(), r.translation_sigma_mm(), r.phase_shift_sigma_ms(), summary.track_ms,
-                summary.solve_ms, JsonQuoted(summary.fiducials_from).c_str());
+                summary.solve_ms, JsonQuoted(summary.fiducials_from).c_str(), summary.result.assignment.rms_px,
+                summary.result.assignment.verdict == stages::FiducialAssignment::Verdict::kReassigned ? "true" : "false",
+                std::isfinite(summary.result.runner_up_cost_ratio)
+                    ? fmt::format("{:.6g}", summary.result.runner_up_cost_ratio).c_str()
+                    : "null");
   json += line;
   if (summary.error) {
     std::snprintf(line, sizeof line,
