@@ -12,6 +12,10 @@
 #include "stages/stereo_frame.h"
 #include "stages/track/feature_tracker.h"
 
+namespace dg::stages {
+struct RegistrationResult;
+}
+
 namespace dg::io {
 struct Registration;
 }
@@ -53,6 +57,9 @@ struct FramePacket {
   // stage solved it on (or from the first frame, when the scene gives it);
   // null before. Shared, never written after it is set.
   std::shared_ptr<const io::Registration> registration;
+  // The solve behind `registration` when the run registered (its fiducial
+  // assignment and search, for the log); null when the scene gave it.
+  std::shared_ptr<const stages::RegistrationResult> registration_solve;
   stages::NodeTargets targets;  // constraint mapping's, for the FEM stage
   // The FEM stage's node positions and record; null before the simulation
   // starts (at the first registered frame). Shared with the overlays, which
@@ -70,6 +77,7 @@ struct FramePacket {
     dropped_before = 0;
     timing_count = 0;
     registration.reset();
+    registration_solve.reset();
     simulation.reset();
   }
 };

@@ -1,6 +1,7 @@
 #include "pipeline/simulation_log.h"
 
 #include "stages/fem_stage.h"
+#include "stages/register/registration.h"
 
 namespace dg::pipeline {
 
@@ -35,7 +36,11 @@ SimulationLog::SimulationLog(io::RunLog& log, std::shared_ptr<const SimulationSe
 
 void SimulationLog::Consume(const FramePacket& packet) {
   if (packet.registration && !registration_) {
-    io::WriteRegistrationH5(&log_.file(), "/registration", *packet.registration);
+    if (packet.registration_solve) {
+      stages::WriteRegistrationLog(*packet.registration_solve, &log_.file(), "/registration");
+    } else {
+      io::WriteRegistrationH5(&log_.file(), "/registration", *packet.registration);
+    }
     log_.file().WriteAttribute("/registration", "frame", packet.index);
     registration_ = packet.registration;
   }

@@ -81,7 +81,8 @@ void RegisterAdapter::Process(FramePacket& packet) {
       sightings.push_back(stages::SightingFromRectified(observation, geometry_));
     }
     if (stage_.Process(packet.t_s, std::move(sightings))) {
-      result_ = std::make_shared<const io::Registration>(stage_.Solve().registration);
+      solve_ = std::make_shared<const stages::RegistrationResult>(stage_.Solve());
+      result_ = std::shared_ptr<const io::Registration>(solve_, &solve_->registration);
       Logger("register").info("registered at frame {}: phase shift {:.2f} ms, residual {:.3f} / {:.3f} px",
                                packet.index, 1e3 * result_->phase_shift_s, result_->left.mean_px,
                                result_->right.mean_px);
@@ -93,6 +94,7 @@ void RegisterAdapter::Process(FramePacket& packet) {
     }
   }
   packet.registration = result_;
+  packet.registration_solve = solve_;
 }
 
 double SimulationSetup::PhaseAt(const io::Registration& registration, double t_s) const {

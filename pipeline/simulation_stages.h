@@ -60,7 +60,8 @@ class RegisterAdapter final : public PacketStage {
   stages::Triangulator geometry_;
   stages::FiducialTracker tracker_;
   stages::RegistrationStage stage_;
-  std::shared_ptr<const io::Registration> result_;
+  std::shared_ptr<const stages::RegistrationResult> solve_;
+  std::shared_ptr<const io::Registration> result_;  // solve_'s registration
 };
 
 // What constraint mapping and the FEM stage share: the scene's mesh, its

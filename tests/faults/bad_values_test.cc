@@ -332,5 +332,66 @@ TEST_CASE("bad values: a given registration in millimetres is refused at scene l
   fs::remove_all(options.out_dir);
 }
 
+// First-frame fiducial pixels as a user gives them (registration.fiducials_uv,
+// here the truth's first frame): in another order they are reassigned, and the
+// run registers exactly as with the right order; one pixel beside its marker
+// is refused when the registration solves, naming the track, with the log
+// marked incomplete.
+TEST_CASE("bad values: fiducial pixels out of order are reassigned, a pixel beside its marker is refused",
+          "[faults][integration]") {
+  const std::string dir = dg::testing::TinyPhantomDir();
+  const io::Scene scene = io::ReadScene(dir + "/scene.yaml");
+  const size_t block = scene.text.find("registration:\n");
+  REQUIRE(block != std::string::npos);
+  const hid_t truth = H5Fopen((dir + "/truth.h5").c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+  REQUIRE(truth >= 0);
+  const std::vector<double> uv = testing::h5_plain::Doubles(truth, "/fiducials/uv_left_px");  // [frames, F, 2]
+  const int fiducials = static_cast<int>(uv.size() / testing::h5_plain::Rows(truth, "/fiducials/uv_left_px") / 2);
+  H5Fclose(truth);
+  REQUIRE(fiducials == 6);
+  // A run from the truth's first-frame pixels, track i starting at the pixel of scan fiducial order[i].
+  auto run_from = [&](const std::string& name, const std::vector<int>& order, double shift_first_px) {
+    const std::string pixels = dir + "/" + name + "_uv.txt";
+    std::ofstream file(pixels);
+    for (int i = 0; i < fiducials; ++i) {
+      file << uv[2 * order[i]] + (i == 0 ? shift_first_px : 0.0) << "," << uv[2 * order[i] + 1] << "\n";
+    }
+    file.close();
+    std::string text = scene.text;
+    text.insert(block + 14, "  fiducials_uv: " + pixels + "\n");
+    return VariantRun(name, text);
+  };
+  auto read_log = [](const tools::RunOptions& options, const char* dataset) {
+    const hid_t file = H5Fopen((options.out_dir + "/run.h5").c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+    REQUIRE(file >= 0);
+    std::vector<double> values = testing::h5_plain::Doubles(file, dataset);
+    CHECK(testing::h5_plain::IntAttribute(file, "/", "complete") == 1);
+    H5Fclose(file);
+    return values;
+  };
+
+  const tools::RunOptions in_order = run_from("uv_in_order", {0, 1, 2, 3, 4, 5}, 0);
+  tools::RunScene(in_order);
+  const tools::RunOptions swapped = run_from("uv_swapped", {1, 0, 3, 2, 4, 5}, 0);
+  tools::RunScene(swapped);
+  CHECK(read_log(swapped, "/registration/assignment/scan_fiducial_of_track") == std::vector<double>{1, 0, 3, 2, 4, 5});
+  CHECK(read_log(in_order, "/registration/assignment/scan_fiducial_of_track") == std::vector<double>{0, 1, 2, 3, 4, 5});
+  // The reassigned tracks are the same tracks in the scan's order: the same registration, to the bit.
+  CHECK(read_log(swapped, "/registration/T_C_S") == read_log(in_order, "/registration/T_C_S"));
+
+  // Fiducial 0's pixel 8 px (5% of the frame) to the right: the track departs
+  // about 6 px from the pose the other five fit, against 1 px for the right pixels.
+  const tools::RunOptions beside = run_from("uv_beside", {0, 1, 2, 3, 4, 5}, 8);
+  const std::string message = RunError(beside);
+  CHECK_THAT(message, Contains("fit the scan's fiducials in no order") && Contains("track 0 departs") &&
+                          Contains("registration.fiducials_uv"));
+  const hid_t file = H5Fopen((beside.out_dir + "/run.h5").c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+  REQUIRE(file >= 0);
+  CHECK(testing::h5_plain::IntAttribute(file, "/", "complete") == 0);
+  CHECK_THAT(testing::h5_plain::StringAttribute(file, "/", "error"), Contains("stage 'register'"));
+  H5Fclose(file);
+  for (const tools::RunOptions* options : {&in_order, &swapped, &beside}) fs::remove_all(options->out_dir);
+}
+
 }  // namespace
 }  // namespace dg
