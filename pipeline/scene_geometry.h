@@ -21,9 +21,9 @@ void CheckSceneGeometry(const io::Scene& scene, const sim::TetMesh& mesh);
 
 // The tissue's depth from the camera, once known, against what stereo
 // matching searches and what the calibration can measure: a depth range in
-// millimetres (--near 30) matches nothing and the run used to blame the
-// fiducials' tracking; a pose in millimetres puts the tissue 1000 times too
-// far. depths_m: of points the camera sees (the scan's fiducials), in the
+// millimetres (--near 30) matches nothing, which would otherwise surface as
+// a failure of the fiducials' tracking; a pose in millimetres puts the tissue
+// 1000 times too far. depths_m: of points the camera sees (the scan's fiducials), in the
 // left camera frame; what: those points and where their depth comes from;
 // unit_fix: how to correct that source if its depths are in another unit.
 // Checks that every depth lies in [near_m, far_m], and that the calibration's
