@@ -8,6 +8,7 @@
 
 #include "tools/bench/overlay_bench.h"
 #include "tools/bench/pipeline_bench.h"
+#include "tools/bench/run_bench.h"
 #include "tools/bench/register_bench.h"
 #include "tools/bench/sim_bench.h"
 #include "tools/bench/vision_bench.h"
@@ -133,6 +134,37 @@ void AddPipelineBench(CLI::App& bench) {
   });
 }
 
+void AddRunBench(CLI::App& bench) {
+  auto options = std::make_shared<RunBenchOptions>();
+  auto policies = std::make_shared<std::vector<std::string>>(std::vector<std::string>{"offline", "realtime"});
+  auto json_path = std::make_shared<std::string>();
+  CLI::App* command = bench.add_subcommand(
+      "run", "`dynaguide run` of the whole scene, repeated: real-time factor, drops and latency per run");
+  command->add_option("scene", options->scene, "scene.yaml (default: the built-in default phantom)");
+  command->add_option("--policy", *policies, "Policies to run")
+      ->delimiter(',')
+      ->check(CLI::IsMember({"offline", "realtime"}))
+      ->capture_default_str();
+  command->add_option("--threads", options->threads, "Threads for each run")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  command->add_option("--repeats", options->repeats, "Runs per policy, each reported")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  command->add_option("--json", *json_path, "Save the records to this JSON file");
+  command->callback([options, policies, json_path] {
+    PrintMachine();
+    options->policies.clear();
+    for (const std::string& policy : *policies) options->policies.push_back(pipeline::ParsePolicy(policy));
+    const std::vector<RunBenchRecord> records = RunRunBench(*options, true);
+    std::fputs(RunBenchTable(records).c_str(), stdout);
+    if (!json_path->empty()) {
+      WriteRunBenchJson(*json_path, records);
+      std::printf("saved %s\n", json_path->c_str());
+    }
+  });
+}
+
 }  // namespace
 
 void AddBenchCommand(CLI::App& app) {
@@ -185,6 +217,7 @@ void AddBenchCommand(CLI::App& app) {
   AddPreopBench(*bench);
   AddOverlayBench(*bench);
   AddPipelineBench(*bench);
+  AddRunBench(*bench);
 }
 
 }  // namespace dg::tools

@@ -69,6 +69,15 @@ std::vector<PipelineBenchRecord> RunPipelineBench(const PipelineBenchOptions& op
   return records;
 }
 
+std::string StageTimingsJson(const pipeline::RunStatistics& statistics) {
+  std::string stages;
+  for (const pipeline::StageStatistics& stage : statistics.stages) {
+    stages += Printed("%s%s: {\"median_ms\": %.4g, \"p95_ms\": %.4g}", stages.empty() ? "" : ", ",
+                      JsonQuoted(stage.name).c_str(), stage.median_ms, stage.p95_ms);
+  }
+  return stages;
+}
+
 std::string PipelineBenchTable(const std::vector<PipelineBenchRecord>& records) {
   std::string table =
       "| threads | mode | frames | frames/s | real-time factor | latency median / p95 ms | overhead | speed-up |\n"
@@ -93,11 +102,7 @@ void WritePipelineBenchJson(const std::string& path, const std::vector<PipelineB
   std::vector<std::string> fields;
   for (const PipelineBenchRecord& r : records) {
     const pipeline::RunStatistics& s = r.statistics;
-    std::string stages;
-    for (const pipeline::StageStatistics& stage : s.stages) {
-      stages += Printed("%s%s: {\"median_ms\": %.4g, \"p95_ms\": %.4g}", stages.empty() ? "" : ", ",
-                        JsonQuoted(stage.name).c_str(), stage.median_ms, stage.p95_ms);
-    }
+    const std::string stages = StageTimingsJson(s);
     fields.push_back(Printed("\"threads\": %d, \"mode\": %s, \"frames\": %lld, \"fps\": %.4g, \"realtime_factor\": %.4g, "
                              "\"latency_ms_median\": %.4g, \"latency_ms_p95\": %.4g, \"overhead_pct\": %.3g, "
                              "\"speedup\": %.3g, \"stages\": {%s}",

@@ -29,6 +29,8 @@ struct PipelineBenchRecord {
 
 // @throws dg::Error for an unreadable scene.
 std::vector<PipelineBenchRecord> RunPipelineBench(const PipelineBenchOptions& options, bool progress);
+// Each stage's timings as JSON members: "name": {"median_ms": .., "p95_ms": ..}, ...
+std::string StageTimingsJson(const pipeline::RunStatistics& statistics);
 std::string PipelineBenchTable(const std::vector<PipelineBenchRecord>& records);
 // Records with threads, mode, frames, fps, realtime_factor, latency_ms_median,
 // latency_ms_p95, overhead_pct, speedup, each stage's median and p95 ms, and the machine.

@@ -1,0 +1,101 @@
+#include "tools/bench/run_bench.h"
+
+#include <algorithm>
+#include <cstdio>
+#include <filesystem>
+
+#include <unistd.h>
+
+#include "tools/bench/bench_json.h"
+#include "tools/bench/pipeline_bench.h"
+#include "tools/json_text.h"
+#include "tools/run/run_job.h"
+
+namespace dg::tools {
+namespace {
+
+struct Spread {
+  double median = 0, low = 0, high = 0;
+};
+
+Spread SpreadOf(std::vector<double> values) {
+  std::sort(values.begin(), values.end());
+  return {pipeline::Quantile(values, 0.5), values.front(), values.back()};
+}
+
+}  // namespace
+
+std::vector<RunBenchRecord> RunRunBench(const RunBenchOptions& options, bool progress) {
+  // Each run writes its log as a user's would (the sink's work is part of the
+  // run), into a scratch folder removed afterwards.
+  const std::filesystem::path scratch =
+      std::filesystem::temp_directory_path() / ("dg_bench_run_" + std::to_string(getpid()));
+  std::vector<RunBenchRecord> records;
+  for (pipeline::Policy policy : options.policies) {
+    for (int repeat = 0; repeat < options.repeats; ++repeat) {
+      if (progress) {
+        std::fprintf(stderr, "bench run: %s, %d threads, run %d of %d\n", pipeline::PolicyName(policy),
+                     options.threads, repeat + 1, options.repeats);
+      }
+      RunOptions run;
+      run.scene = options.scene;
+      run.out_dir = scratch.string();
+      run.threads = options.threads;
+      run.graph.policy = policy;
+      run.video = false;
+      run.progress = false;
+      const RunOutcome outcome = RunScene(run);
+      records.push_back({policy, options.threads, repeat, outcome.statistics, outcome.simulated_frames});
+    }
+  }
+  std::filesystem::remove_all(scratch);
+  return records;
+}
+
+std::string RunBenchTable(const std::vector<RunBenchRecord>& records) {
+  std::string table =
+      "| policy | threads | run | frames | dropped | real-time factor | latency median / p95 ms |\n"
+      "|---|---:|---:|---:|---:|---:|---:|\n";
+  for (const RunBenchRecord& r : records) {
+    const pipeline::RunStatistics& s = r.statistics;
+    table += Printed("| %s | %d | %d | %lld | %lld | %.2f | %.1f / %.1f |\n", pipeline::PolicyName(r.policy), r.threads,
+                     r.repeat + 1, static_cast<long long>(s.frames), static_cast<long long>(s.dropped),
+                     s.realtime_factor, s.latency_median_ms, s.latency_p95_ms);
+  }
+  for (pipeline::Policy policy : {pipeline::Policy::kOffline, pipeline::Policy::kRealtime}) {
+    std::vector<double> factor, median, p95;
+    long long dropped = 0;
+    for (const RunBenchRecord& r : records) {
+      if (r.policy != policy) continue;
+      factor.push_back(r.statistics.realtime_factor);
+      median.push_back(r.statistics.latency_median_ms);
+      p95.push_back(r.statistics.latency_p95_ms);
+      dropped += r.statistics.dropped;
+    }
+    if (factor.empty()) continue;
+    const Spread f = SpreadOf(factor), m = SpreadOf(median), p = SpreadOf(p95);
+    table += Printed("%s: real-time factor %.2f (%.2f-%.2f), latency median %.1f ms (%.1f-%.1f), p95 %.1f ms "
+                     "(%.1f-%.1f), %lld frames dropped in %zu runs\n",
+                     pipeline::PolicyName(policy), f.median, f.low, f.high, m.median, m.low, m.high, p.median, p.low,
+                     p.high, dropped, factor.size());
+  }
+  return table;
+}
+
+void WriteRunBenchJson(const std::string& path, const std::vector<RunBenchRecord>& records) {
+  std::vector<std::string> fields;
+  for (const RunBenchRecord& r : records) {
+    const pipeline::RunStatistics& s = r.statistics;
+    const std::string stages = StageTimingsJson(s);
+    fields.push_back(Printed("\"policy\": %s, \"threads\": %d, \"repeat\": %d, \"frames\": %lld, \"dropped\": %lld, "
+                             "\"realtime_factor\": %.4g, \"latency_ms_median\": %.4g, \"latency_ms_p95\": %.4g, "
+                             "\"simulated_frames\": %lld, \"stages\": {%s}",
+                             JsonQuoted(pipeline::PolicyName(r.policy)).c_str(), r.threads, r.repeat + 1,
+                             static_cast<long long>(s.frames), static_cast<long long>(s.dropped), s.realtime_factor,
+                             s.latency_median_ms, s.latency_p95_ms, static_cast<long long>(r.simulated_frames),
+                             stages.c_str()));
+  }
+  WriteBenchJson(path, fields);
+}
+
+}  // namespace dg::tools
