@@ -75,21 +75,21 @@ void StageGraph::Plan() {
   edges_.push_back({join, previous});
   edges_.push_back({previous, free_packets});  // a packet the source could not fill goes straight back
 
-  // Frames leave the source in order; a stateless (unlimited) stage may
-  // reorder them, so a sequencer goes before the next stateful stage or sink.
-  bool reordered = false;
+  // A stateful stage and the sink need the frames in order, and a sequencer
+  // before each restores it. A stateless (unlimited) stage reorders frames;
+  // so, rarely, does a chain of serial nodes: a serial node's queue keeps the
+  // order of the puts, but the puts of consecutive frames come from the
+  // tasks of the node before it, on any thread, and may cross (TBB keeps
+  // order only for puts from one thread).
   auto chain = [&](int node) {
     edges_.push_back({previous, node});
     previous = node;
   };
   std::map<std::string, int> stage_nodes;
   for (const auto& stage : stages_) {
-    const bool sequence = stage->stateful() && reordered;
-    sequenced_before_.push_back(sequence);
-    if (sequence) chain(add("order_before_" + stage->name(), "sequencer"));
+    if (stage->stateful()) chain(add("order_before_" + stage->name(), "sequencer"));
     chain(add(stage->name(), stage->stateful() ? "stateful" : "stateless"));
     stage_nodes[stage->name()] = previous;
-    reordered = sequence ? false : reordered || !stage->stateful();
   }
   for (const auto& branch : branches_) {
     const auto feeder = stage_nodes.find(branch->fed_by());
@@ -101,8 +101,7 @@ void StageGraph::Plan() {
   }
   const int last_stage = previous;
   previous = last_stage;
-  sequenced_before_.push_back(reordered);
-  if (reordered) chain(add("order_before_sink", "sequencer"));
+  chain(add("order_before_sink", "sequencer"));
   chain(add("sink", "sink"));
   edges_.push_back({previous, free_packets});
 }
@@ -145,8 +144,8 @@ class StageGraph::Runner {
       previous = &node;
     };
     for (size_t i = 0; i < plan_.stages_.size(); ++i) {
-      if (plan_.sequenced_before_[i]) chain(AddSequencer());
       PacketStage& stage = *plan_.stages_[i];
+      if (stage.stateful()) chain(AddSequencer());
       const int index = static_cast<int>(i) + 1;
       stage_nodes_.push_back(std::make_unique<StageNode>(
           graph_, stage.stateful() ? flow::serial : flow::unlimited, [this, &stage, index](Packet packet) {
@@ -155,7 +154,7 @@ class StageGraph::Runner {
           }));
       chain(*stage_nodes_.back());
     }
-    if (plan_.sequenced_before_.back()) chain(AddSequencer());
+    chain(AddSequencer());
     const int sink_index = static_cast<int>(plan_.stage_names_.size()) - 1;
     sink_node_ = std::make_unique<StageNode>(graph_, flow::serial, [this, sink_index](Packet packet) {
       Consume(*packet, sink_index);

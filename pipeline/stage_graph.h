@@ -153,8 +153,6 @@ class StageGraph {
   std::vector<std::string> stage_names_;
   std::vector<Node> nodes_;
   std::vector<Edge> edges_;
-  // For each stage, whether a sequencer precedes it (and, at the end, the sink).
-  std::vector<bool> sequenced_before_;
   bool ran_ = false;
 };
 

@@ -187,10 +187,11 @@ TEST_CASE("graph: built with exactly the stages the scene needs", "[pipeline][in
         SceneFromText("scene_front_end.yaml", WithoutBlock(WithoutBlock(scene.text, "simulation"), "registration"));
     const SceneGraph raw = BuildSceneGraph(front_end, {});
     REQUIRE(raw.graph->stage_names() == std::vector<std::string>{"capture", "rectify", "track", "sink"});
-    // rectify may reorder frames (unlimited concurrency): a sequencer restores the order before the tracker.
+    // A sequencer before the tracker and the sink: each needs the frames in order.
     REQUIRE(NodeNames(*raw.graph) == std::vector<std::string>{"free_packets", "ticker", "limiter", "capture",
-                                                              "rectify", "order_before_track", "track", "sink"});
-    REQUIRE(raw.graph->edges().size() == 9);
+                                                              "rectify", "order_before_track", "track",
+                                                              "order_before_sink", "sink"});
+    REQUIRE(raw.graph->edges().size() == 10);
     REQUIRE(raw.simulation == nullptr);
   }
 
