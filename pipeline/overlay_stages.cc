@@ -107,17 +107,18 @@ void OverlayBranch::Publish(const FramePacket& packet) {
 }
 
 void OverlayBranch::Drain() {
-  // Empty before each pop: what the pop leaves in the ring's slot must not be a geometry.
-  for (Geometry geometry; ring_.TryPopLatest(geometry); geometry = {}) {
-    const std::int64_t start = SteadyNowNs();
-    if (drawing_.empty()) BuildEyes(Eigen::Isometry3d(geometry.registration->T_C_S));
-    // Both eyes drawn before either is offered, so the eyes' composites show the same geometry.
-    for (Eye& eye : drawing_) eye.layer = eye.draw(geometry.simulation->nodes_S_m, geometry.frame);
-    for (Eye& eye : drawing_) eye.compositor->Offer(index_, std::move(eye.layer));
-    ++drawn_;
-    std::lock_guard lock(timings_mutex_);
-    timings_.push_back({geometry.frame, start, SteadyNowNs()});
-  }
+  // One draw of the newest geometry, then the turn passes to the next branch
+  // (geometries arriving meanwhile wake this one again).
+  Geometry geometry;
+  if (!ring_.TryPopLatest(geometry)) return;
+  const std::int64_t start = SteadyNowNs();
+  if (drawing_.empty()) BuildEyes(Eigen::Isometry3d(geometry.registration->T_C_S));
+  // Both eyes drawn before either is offered, so the eyes' composites show the same geometry.
+  for (Eye& eye : drawing_) eye.layer = eye.draw(geometry.simulation->nodes_S_m, geometry.frame);
+  for (Eye& eye : drawing_) eye.compositor->Offer(index_, std::move(eye.layer));
+  ++drawn_;
+  std::lock_guard lock(timings_mutex_);
+  timings_.push_back({geometry.frame, start, SteadyNowNs()});
 }
 
 std::vector<OverlayTiming> OverlayBranch::timings() const {

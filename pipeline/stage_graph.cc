@@ -163,13 +163,23 @@ class StageGraph::Runner {
     chain(*sink_node_);
     flow::make_edge(*sink_node_, free_);
 
-    // A side branch is a serial node that rejects what arrives while it runs: a wake, not a queue.
-    for (const auto& branch : plan_.branches_) {
-      side_nodes_.push_back(std::make_unique<SideNode>(graph_, flow::serial, [this, branch](flow::continue_msg) {
-        DrainSide(*branch);
+    // The side branches share one serial node that rejects what arrives while
+    // it runs: a wake marks its branch pending and wakes the node, which
+    // drains the pending branches in turn. (A node per branch starves all but
+    // the busiest: the others' one task, spawned once, stays under its newer
+    // tasks in a worker's last-in-first-out deque for the whole run.)
+    if (!plan_.branches_.empty()) {
+      side_pending_ = std::make_unique<std::atomic<bool>[]>(plan_.branches_.size());
+      side_node_ = std::make_unique<SideNode>(graph_, flow::serial, [this](flow::continue_msg) {
+        DrainPendingSides();
         return flow::continue_msg();
-      }));
-      branch->wake_ = [node = side_nodes_.back().get()] { node->try_put(flow::continue_msg()); };
+      });
+    }
+    for (size_t b = 0; b < plan_.branches_.size(); ++b) {
+      plan_.branches_[b]->wake_ = [this, b] {
+        side_pending_[b] = true;
+        side_node_->try_put(flow::continue_msg());
+      };
     }
   }
 
@@ -370,6 +380,22 @@ class StageGraph::Runner {
   }
 
   // A side branch that throws stops the source; the frames already read still complete.
+  // The pending side branches, each in turn from the one after the last
+  // drained, until none is pending.
+  void DrainPendingSides() {
+    const size_t count = plan_.branches_.size();
+    for (bool drained = true; drained && !Failed();) {
+      drained = false;
+      for (size_t k = 0; k < count && !drained; ++k) {
+        const size_t b = (next_side_ + k) % count;
+        if (!side_pending_[b].exchange(false)) continue;
+        DrainSide(*plan_.branches_[b]);
+        next_side_ = (b + 1) % count;
+        drained = true;
+      }
+    }
+  }
+
   void DrainSide(SideBranch& branch) {
     try {
       branch.Drain();
@@ -431,7 +457,9 @@ class StageGraph::Runner {
   std::vector<std::unique_ptr<Sequencer>> sequencers_;
   std::vector<std::unique_ptr<StageNode>> stage_nodes_;
   std::unique_ptr<StageNode> sink_node_;
-  std::vector<std::unique_ptr<SideNode>> side_nodes_;
+  std::unique_ptr<SideNode> side_node_;                 // runs DrainPendingSides
+  std::unique_ptr<std::atomic<bool>[]> side_pending_;  // per branch: woken since its last drain
+  size_t next_side_ = 0;                               // the branch drained first next time
 };
 
 GraphRunResult StageGraph::Run(GraphSink& sink) {

@@ -58,13 +58,14 @@ class GraphSink {
 };
 
 // Work beside the graph's chain of frames (the overlays): a stage hands it
-// values through the branch's own bounded SPSC
-// ring and calls Wake(). The graph then runs Drain() as a task of its own,
-// never two at once; a wake while Drain() runs is dropped, not queued (Drain()
-// takes whatever the ring holds, so the slow branch skips to the newest value
-// and never holds the chain back). After the last frame the graph calls
-// Drain() once more, so nothing handed over is left behind. Drain() must take
-// everything its ring holds when it starts.
+// values through the branch's own bounded SPSC ring and calls Wake(). The
+// graph runs the woken branches' Drain() beside the chain, one at a time, in
+// turn; a wake while a branch waits or drains marks it for another turn
+// rather than queueing a call. Drain() takes the newest value its ring holds
+// (dropping the older), works on it and returns, so a slow branch skips to
+// the newest value, never holds the chain back, and never keeps the others
+// from their turns. After the last frame the graph calls every Drain() once
+// more, so the newest value handed over is not left behind.
 class SideBranch {
  public:
   virtual ~SideBranch() = default;

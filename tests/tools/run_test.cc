@@ -109,7 +109,7 @@ TEST_CASE("run: the tiny phantom end to end, and its report", "[tools][integrati
     const long long published = IntAttribute(file, "/overlay_timings", (overlay + "_published").c_str());
     const long long drawn = IntAttribute(file, "/overlay_timings", (overlay + "_drawn").c_str());
     CHECK(published == static_cast<long long>(simulated));
-    CHECK(drawn >= 1);
+    CHECK(drawn >= 1);  // the tiny run lasts 0.2 s; the branches' turns are tested in the graph's tests
     CHECK(drawn + IntAttribute(file, "/overlay_timings", (overlay + "_dropped").c_str()) == published);
   }
   H5Fclose(file);
