@@ -218,11 +218,11 @@ FiducialAssignment AssignFiducials(const FiducialMotion& motion, const io::Stere
 
   // Every order ranked by its 3-D fit; the order given is always measured.
   std::vector<std::pair<double, std::vector<int>>> ranked;
-  result.searched = F <= FiducialAssignment::kMaxSearchedFiducials;
+  const bool search = F <= FiducialAssignment::kMaxSearchedFiducials;  // else the order given alone
   std::vector<int> candidate = given;
   do {
     ranked.emplace_back(RigidFitRms_m(scan_S, means.xyz_C_m, candidate), candidate);
-  } while (result.searched && std::next_permutation(candidate.begin(), candidate.end()));
+  } while (search && std::next_permutation(candidate.begin(), candidate.end()));
   const size_t measured = std::min<size_t>(ranked.size(), kImageFitted);
   std::partial_sort(ranked.begin(), ranked.begin() + measured, ranked.end());
   ranked.resize(measured);

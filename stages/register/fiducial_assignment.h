@@ -39,7 +39,6 @@ struct FiducialAssignment {
   double rms_px = 0;                      // their rms
   double given_rms_px = 0;                // the rms under the order given (track i is scan fiducial i)
   double runner_up_rms_px = 0;            // the best rms of another order (infinite when none was tried)
-  bool searched = false;                  // orders other than the one given were tried
 };
 
 // Chooses the assignment; an image fit within tolerance_px (rms) explains the
