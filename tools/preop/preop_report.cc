@@ -57,7 +57,7 @@ void PreopReportFile::Write(const PreopSummary& summary, bool complete, const st
   for (size_t k = 0; k < summary.registration.size(); ++k) {
     const auto& phase = summary.registration[k];
     json << (k ? ",\n    " : "\n    ") << "{\"phase\": " << phase.phase << ", \"metric_before\": " << phase.metric_before
-         << ", \"metric_after\": " << phase.metric_after << ", \"iterations\": " << phase.iterations
+         << ", \"metric_after\": " << phase.metric_after << ", \"iterations\": " << phase.iterations << ", \"evaluations\": " << phase.evaluations
          << ", \"min_jacobian\": " << phase.min_jacobian << ", \"max_jacobian\": " << phase.max_jacobian
          << ", \"wall_s\": " << phase.wall_s << "}";
   }

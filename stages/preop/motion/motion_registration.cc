@@ -10,6 +10,8 @@
 // the same include guards: the project's Eigen 3.4 (our header included its
 // Core) must be complete first, or 3.3's modules compile against 3.4's Core.
 #include <Eigen/Eigenvalues>
+#include <ceres/gradient_problem.h>
+#include <ceres/gradient_problem_solver.h>
 #include <itkBSplineInterpolateImageFunction.h>
 #include <itkBSplineTransform.h>
 #include <itkBSplineTransformInitializer.h>
@@ -17,7 +19,6 @@
 #include <itkDisplacementFieldJacobianDeterminantFilter.h>
 #include <itkImage.h>
 #include <itkImageRegionConstIteratorWithIndex.h>
-#include <itkLBFGSBOptimizer.h>
 #include <itkLinearInterpolateImageFunction.h>
 #include <itkMattesMutualInformationImageToImageMetric.h>
 #include <itkMeanSquaresImageToImageMetric.h>
@@ -42,7 +43,6 @@ constexpr unsigned kSplineOrder = 3;
 
 using Image = itk::Image<float, kDim>;
 using BSpline = itk::BSplineTransform<double, kDim, kSplineOrder>;
-using Optimizer = itk::LBFGSBOptimizer;
 using VectorImage = itk::Image<itk::Vector<float, kDim>, kDim>;
 
 Image::Pointer ToItkImage(const io::CtImage& ct) {
@@ -222,6 +222,33 @@ itk::SingleValuedCostFunction::Pointer MakeMetric(MotionMetric kind, const Image
   return mattes.GetPointer();
 }
 
+// An ITK metric as Ceres sees it. The optimiser is Ceres's L-BFGS rather than
+// ITK's L-BFGS-B: that one is f2c'd Fortran whose locals are process-wide
+// statics, so registrations of several phases at once trample each other's
+// iteration state (wrong results, now and then a crash).
+class MetricFunction final : public ceres::FirstOrderFunction {
+ public:
+  explicit MetricFunction(itk::SingleValuedCostFunction::Pointer metric) : metric_(std::move(metric)) {}
+
+  bool Evaluate(const double* parameters, double* cost, double* gradient) const override {
+    const int n = NumParameters();
+    itk::SingleValuedCostFunction::ParametersType x(n);
+    std::copy(parameters, parameters + n, x.data_block());
+    if (!gradient) {
+      *cost = metric_->GetValue(x);
+      return std::isfinite(*cost);
+    }
+    itk::SingleValuedCostFunction::DerivativeType derivative;
+    metric_->GetValueAndDerivative(x, *cost, derivative);
+    std::copy(derivative.begin(), derivative.end(), gradient);
+    return std::isfinite(*cost);
+  }
+  int NumParameters() const override { return static_cast<int>(metric_->GetNumberOfParameters()); }
+
+ private:
+  itk::SingleValuedCostFunction::Pointer metric_;
+};
+
 // The number of B-spline intervals per axis so that control points are about
 // spacing_mm apart over the image's extent (at least one interval).
 BSpline::MeshSizeType MeshSize(const Image::Pointer& image, double spacing_mm) {
@@ -301,23 +328,25 @@ void RunLevel(const Image::Pointer& fixed, const Image::Pointer& moving, const B
   const itk::SingleValuedCostFunction::Pointer metric =
       MakeMetric(options.metric, Shrunk(Smoothed(fixed, sigma_voxels), shrink), Smoothed(moving, sigma_voxels), transform,
                  options.bending_weight);
-  const Optimizer::Pointer optimizer = Optimizer::New();
-  const unsigned parameters = transform->GetNumberOfParameters();
-  optimizer->SetBoundSelection(Optimizer::BoundSelectionType(parameters, 0L));  // unbounded
-  optimizer->SetLowerBound(Optimizer::BoundValueType(parameters, 0.0));
-  optimizer->SetUpperBound(Optimizer::BoundValueType(parameters, 0.0));
-  optimizer->SetMaximumNumberOfIterations(options.max_iterations);
-  optimizer->SetMaximumNumberOfEvaluations(4 * options.max_iterations);
-  optimizer->SetMaximumNumberOfCorrections(7);
-  optimizer->SetCostFunctionConvergenceFactor(1e7);
-  optimizer->SetProjectedGradientTolerance(1e-6);
-  optimizer->SetCostFunction(metric);
-  optimizer->SetInitialPosition(transform->GetParameters());
-  optimizer->StartOptimization();
-  // By value: SetParameters would keep a reference to the optimiser's array.
-  transform->SetParametersByValue(optimizer->GetCurrentPosition());
-  report->iterations += optimizer->GetCurrentIteration();
-  report->stop_condition = optimizer->GetStopConditionDescription();
+  BSpline::ParametersType parameters = transform->GetParameters();
+  ceres::GradientProblemSolver::Options solver;
+  solver.line_search_direction_type = ceres::LBFGS;
+  solver.max_lbfgs_rank = 7;
+  solver.max_num_iterations = options.max_iterations;
+  solver.function_tolerance = 1e-9;  // relative decrease of the metric per iteration
+  solver.gradient_tolerance = 1e-6;
+  solver.logging_type = ceres::SILENT;
+  ceres::GradientProblemSolver::Summary summary;
+  ceres::Solve(solver, ceres::GradientProblem(new MetricFunction(metric)), parameters.data_block(), &summary);
+  if (summary.termination_type == ceres::FAILURE) {
+    throw Error("the B-spline optimisation failed: " + summary.message, "motion registration",
+                "check that the phase shows the same anatomy as phase 0 on the same grid");
+  }
+  // By value: SetParameters would keep a reference to this local array.
+  transform->SetParametersByValue(parameters);
+  report->iterations += static_cast<int>(summary.iterations.size()) - 1;  // the first entry is the start
+  report->evaluations += summary.num_gradient_evaluations;
+  report->stop_condition = summary.message;
 }
 
 BSpline::Pointer RegisterPhase(const Image::Pointer& fixed, const Image::Pointer& moving,

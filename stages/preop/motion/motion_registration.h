@@ -29,7 +29,7 @@ enum class MotionMetric {
 struct MotionRegistrationOptions {
   double grid_spacing_mm = 16.0;  // control-point spacing at the finest level
   int levels = 3;                 // level l of L: image shrunk 2^(L-1-l), control points 2^(L-1-l) times as far apart
-  int max_iterations = 30;        // L-BFGS-B iterations per level
+  int max_iterations = 30;        // L-BFGS iterations per level
   MotionMetric metric = MotionMetric::kMeanSquares;
   double bending_weight = 0;      // HU^2 per mm^2 of the control points' mean squared second difference (mean squares only)
   int threads = 0;                // phases registered at once (each on one core); 0: TBB's default
@@ -42,7 +42,8 @@ struct PhaseRegistrationReport {
   int phase = 0;
   double metric_before = 0;  // the metric (MotionMetric; HU^2 or nats) at the identity, on the full-resolution images
   double metric_after = 0;   // and at the result
-  int iterations = 0;        // L-BFGS-B iterations, all levels
+  int iterations = 0;        // L-BFGS iterations, all levels
+  int evaluations = 0;       // of the metric and its gradient, all levels (line searches included)
   double min_jacobian = 1;   // det of the deformation's Jacobian over the phase-0 image's voxels
   double max_jacobian = 1;
   double wall_s = 0;

@@ -68,7 +68,7 @@ TEST_CASE("motion registration: the phantom's motion at its mesh nodes and fiduc
                   << " mm; fiducials mean " << fiducials.mean_mm << " max " << fiducials.max_mm << " mm; J ["
                   << report.min_jacobian << ", " << report.max_jacobian << "]");
     // Measured (default options): nodes phase 5 0.31 / 0.97 mm (mean / max),
-    // phase 10 0.38 / 1.60 mm; fiducials 0.03 and 0.04 mm mean. Bounds about twice.
+    // phase 10 0.41 / 1.72 mm; fiducials 0.02 and 0.05 mm mean. Bounds about twice.
     CHECK(nodes.mean_mm < 0.8);
     CHECK(nodes.max_mm < 3.2);
     CHECK(fiducials.mean_mm < 0.1);
