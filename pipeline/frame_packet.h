@@ -53,6 +53,7 @@ struct FramePacket {
   cv::Mat left_grey, right_grey;    // the tracker's input before rectification
   stages::RectifiedPair rectified;  // grey, rectified (or the grey input when it comes rectified)
   stages::TrackFrame tracks;
+  stages::TrackTimings track_timings;  // where the tracker spent its time on this frame
   // The scan's registration to the video: from the frame the registration
   // stage solved it on (or from the first frame, when the scene gives it);
   // null before. Shared, never written after it is set.

@@ -23,7 +23,7 @@ void RectifyAdapter::Process(FramePacket& packet) {
 }
 
 void TrackAdapter::Process(FramePacket& packet) {
-  tracker_.Process(packet.rectified.left, packet.rectified.right, &packet.tracks);
+  tracker_.Process(packet.rectified.left, packet.rectified.right, &packet.tracks, &packet.track_timings);
 }
 
 }  // namespace dg::pipeline

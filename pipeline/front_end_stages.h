@@ -46,7 +46,7 @@ class RectifyAdapter final : public PacketStage {
   std::shared_ptr<const stages::RectifyStage> rectify_;
 };
 
-// track: packet.rectified -> packet.tracks. Stateful: frames in order.
+// track: packet.rectified -> packet.tracks and packet.track_timings. Stateful: frames in order.
 class TrackAdapter final : public PacketStage {
  public:
   TrackAdapter(const stages::FeatureTracker::Options& options, const io::StereoCalibration& calibration)

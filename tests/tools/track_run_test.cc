@@ -3,6 +3,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <regex>
 #include <set>
 #include <sstream>
 
@@ -15,6 +16,7 @@
 
 #include "io/calibration.h"
 #include "io/h5_file.h"
+#include "pipeline/scene_graph.h"
 #include "sim/error.h"
 #include "tests/support/tiny_phantom.h"
 #include "tools/track/front_end.h"
@@ -58,6 +60,7 @@ TEST_CASE("track: a frame range of the tiny phantom to HDF5 and CSV", "[tools][i
     CHECK(h5.Shape(std::string("/tracks/") + column) == io::H5Shape{n, 2});
   CHECK(h5.Shape("/tracks/xyz_C_m") == io::H5Shape{n, 3});
   CHECK(h5.ReadAttribute<std::int64_t>("/tracks", "frames") == 10);
+  CHECK(h5.ReadAttribute<std::string>("/tracks/kind", "values") == "0 corner, 1 MSER");
   CHECK(h5.ReadAttribute<std::int64_t>("/", "complete") == 1);
 
   const std::vector<std::int32_t> frame = h5.Read<std::int32_t>("/tracks/frame");
@@ -115,27 +118,105 @@ TEST_CASE("track: a single image pair with a calibration, and an empty frame ran
   CHECK_THROWS_WITH(RunTrack(options), Catch::Contains("frame range"));
 }
 
+// A scene whose recording is one side-by-side video (left eye in the left
+// half) gives the tracks its two-file recording gives: the same frames,
+// losslessly re-encoded side by side, through the same capture code as `run`.
+TEST_CASE("track: a side-by-side recording tracks as its two files do", "[tools][integration]") {
+  const std::string dir = TinyScene() + "/side_by_side";
+  fs::create_directories(dir);
+  constexpr int kFrames = 6;
+  cv::VideoCapture left(TinyScene() + "/video/left.avi"), right(TinyScene() + "/video/right.avi");
+  cv::VideoWriter both;
+  for (int i = 0; i < kFrames; ++i) {
+    cv::Mat l, r, joined;
+    REQUIRE(left.read(l));
+    REQUIRE(right.read(r));
+    cv::hconcat(l, r, joined);
+    if (!both.isOpened()) {
+      REQUIRE(both.open(dir + "/both.avi", cv::VideoWriter::fourcc('H', 'F', 'Y', 'U'), left.get(cv::CAP_PROP_FPS),
+                        joined.size()));
+    }
+    both.write(joined);
+  }
+  both.release();
+  std::ifstream in(TinyScene() + "/scene.yaml");
+  std::stringstream text;
+  text << in.rdbuf();
+  std::string scene = std::regex_replace(text.str(), std::regex("  left: video/left.avi\n  right: video/right.avi\n"),
+                                         "  layout: side_by_side\n  left: side_by_side/both.avi\n");
+  scene = std::regex_replace(scene, std::regex("\n  frames: \\d+"), "");
+  REQUIRE(scene.find("side_by_side/both.avi") != std::string::npos);
+  std::ofstream(TinyScene() + "/scene_side_by_side.yaml") << scene;
+
+  TrackRunOptions options;
+  options.end_frame = kFrames;
+  options.input.scene = TinyScene() + "/scene.yaml";
+  options.out_h5 = dir + "/two_files.h5";
+  const TrackRunSummary two_files = RunTrack(options);
+  options.input.scene = TinyScene() + "/scene_side_by_side.yaml";
+  options.out_h5 = dir + "/side_by_side.h5";
+  const TrackRunSummary side_by_side = RunTrack(options);
+  REQUIRE(side_by_side.frames == kFrames);
+  REQUIRE(side_by_side.rows == two_files.rows);
+  CHECK(io::H5Reader(dir + "/side_by_side.h5").Read<double>("/tracks/xyz_C_m") ==
+        io::H5Reader(dir + "/two_files.h5").Read<double>("/tracks/xyz_C_m"));
+}
+
+// Images carry no frame rate: a sequence without one is refused, not given 1 fps.
+TEST_CASE("track: an image sequence without a frame rate is refused", "[tools][integration]") {
+  const std::string dir = TinyScene() + "/sequence";
+  fs::create_directories(dir);
+  for (const char* eye : {"left", "right"}) {
+    cv::VideoCapture video(TinyScene() + "/video/" + eye + ".avi");
+    for (int i = 0; i < 2; ++i) {
+      cv::Mat image;
+      REQUIRE(video.read(image));
+      REQUIRE(cv::imwrite(dir + "/" + eye + "_" + std::to_string(i) + ".png", image));
+    }
+  }
+  TrackRunOptions options;
+  options.input.left = dir + "/left_%d.png";
+  options.input.right = dir + "/right_%d.png";
+  options.input.calibration = TinyScene() + "/calibration.yaml";
+  options.out_h5 = dir + "/out/tracks.h5";  // a folder that does not exist yet
+  CHECK_THROWS_WITH(RunTrack(options), Catch::Contains("frame rate"));
+  options.input.fps = 30;
+  const TrackRunSummary summary = RunTrack(options);
+  CHECK(summary.frames == 2);
+  const std::vector<double> t_s = io::H5Reader(options.out_h5).Read<double>("/tracks/t_s");
+  CHECK(t_s.back() == Approx(1.0 / 30));
+}
+
 // A run that dies part-way (here a process that exits without finishing its
 // table) leaves a readable file with every frame it added, marked incomplete.
 TEST_CASE("track: an interrupted run leaves its frames readable, marked incomplete", "[tools][integration]") {
-  std::vector<FrontEndFrame> frames;
+  // Four frames through the front-end graph, kept for the child to write.
+  struct Frame {
+    std::int64_t index;
+    double t_s;
+    stages::TrackFrame tracks;
+  };
+  struct Keep final : pipeline::GraphSink {
+    std::vector<Frame> frames;
+    void Consume(const pipeline::FramePacket& packet) override { frames.push_back({packet.index, packet.t_s, packet.tracks}); }
+    void RecordTimings(std::span<const pipeline::StageTiming>) override {}
+    void RecordDrop(std::int64_t, std::int64_t) override {}
+  } kept;
+  FrontEndInput input;
+  input.scene = TinyScene() + "/scene.yaml";
+  pipeline::GraphOptions graph;
+  graph.end_frame = 4;
+  pipeline::BuildSceneGraph(FrontEndScene(input), graph, FrontEndSettingsOf(input)).graph->Run(kept);
+  REQUIRE(kept.frames.size() == 4);
   std::size_t rows = 0;
-  {  // closed before the fork: no decoding task still running
-    FrontEndInput input;
-    input.scene = TinyScene() + "/scene.yaml";
-    FrontEnd front_end(input);
-    for (int i = 0; i < 4; ++i) {
-      frames.push_back(*front_end.Next());
-      rows += frames.back().tracks.points.size();
-    }
-  }
+  for (const Frame& frame : kept.frames) rows += frame.tracks.points.size();
   const std::string path = TinyScene() + "/interrupted.h5";
   // The child only writes (no TBB after fork): the tracks were computed here.
   const pid_t child = fork();
   REQUIRE(child >= 0);
   if (child == 0) {
     auto* table = new TrackTable(path, "");  // never finished nor closed
-    for (const FrontEndFrame& frame : frames) table->Add(frame.index, frame.t_s, frame.tracks);
+    for (const Frame& frame : kept.frames) table->Add(frame.index, frame.t_s, frame.tracks);
     _exit(0);
   }
   int status = 0;

@@ -16,10 +16,11 @@ struct VisionBenchOptions {
 
 // One line of the saved table: the interface users script against.
 // Times are per stereo frame, in milliseconds; parts are medians over frames.
-// ms_median and ms_p95 are of the frame's wall time in FrontEnd::Next, the
-// sum of the parts. As in the pipeline, frame j+1 is decoded while frame j is
-// rectified and tracked, so capture_ms is the wait for a decoded frame (the
-// decoding that tracking did not hide), not the decoding time itself.
+// The front end is the run's own graph cut after tracking (offline, two
+// frames in flight). ms_median and ms_p95 are of a frame's work: its capture
+// (decoding and conversion to grey), rectify and track stages summed. fps is
+// the graph's throughput, frames over wall time: with frame j+1 captured
+// while frame j is tracked, it exceeds 1000 / ms_median when the stages overlap.
 struct VisionBenchRecord {
   std::string codec;  // of the video read
   int threads = 0;
@@ -27,7 +28,7 @@ struct VisionBenchRecord {
   int frames = 0;
   int features = 0;  // median tracked points per frame
   double ms_median = 0, ms_p95 = 0;
-  double fps = 0;    // 1000 / ms_median
+  double fps = 0;    // frames / wall time of the graph
   double capture_ms = 0, rectify_ms = 0, temporal_ms = 0, detect_ms = 0, stereo_ms = 0, triangulate_ms = 0;
   double detect_ms_max = 0;  // the worst frame's: detection runs in few frames, so its median hides it
 };

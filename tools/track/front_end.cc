@@ -1,114 +1,73 @@
 #include "tools/track/front_end.h"
 
 #include <algorithm>
-#include <chrono>
 #include <filesystem>
-#include <utility>
 
-#include "io/calibration.h"
-#include "io/scene.h"
 #include "sim/error.h"
 
 namespace dg::tools {
 namespace {
 
+namespace fs = std::filesystem;
+
 bool IsImagePath(const std::string& path) {
-  std::string ext = std::filesystem::path(path).extension().string();
+  std::string ext = fs::path(path).extension().string();
   std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
   for (const char* image : {".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".pgm", ".ppm"})
     if (ext == image) return true;
   return false;
 }
 
-double MsSince(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+// Left and right inputs given on the command line as a scene's video.
+io::Scene::Video VideoOf(const FrontEndInput& input) {
+  io::Scene::Video video;
+  video.left = input.left;
+  video.right = input.right;
+  video.fps = input.fps;
+  if (!IsImagePath(input.left)) return video;  // videos: a rate of 0 takes the container's
+  video.layout = io::Scene::Video::Layout::kImageSequences;
+  // One image pair is one frame at t = 0, whatever the rate. A sequence's
+  // times need the rate it was recorded at: without one, capture refuses it.
+  const bool single_pair = fs::is_regular_file(input.left) && fs::is_regular_file(input.right);
+  if (single_pair && !(video.fps > 0)) video.fps = 1;
+  return video;
 }
 
 }  // namespace
 
-FrontEnd::FrontEnd(const FrontEndInput& input) {
-  std::string left = input.left, right = input.right, calibration_path = input.calibration;
-  double fps = input.fps;
+io::Scene FrontEndScene(const FrontEndInput& input) {
+  io::Scene scene;
   if (!input.scene.empty()) {
-    const io::Scene scene = io::ReadScene(input.scene);
-    left = scene.video.left;
-    right = scene.video.right;
-    if (calibration_path.empty()) calibration_path = scene.calibration;
-    if (fps == 0) fps = scene.video.fps;
+    scene = io::ReadScene(input.scene);
+    if (!input.left.empty() || !input.right.empty()) {
+      throw Error("a scene and --left/--right given together", input.scene,
+                  "give the scene (its video is read) or --left and --right with --calib, not both");
+    }
+    if (input.fps > 0) scene.video.fps = input.fps;
+  } else {
+    if (input.left.empty() || input.right.empty()) {
+      throw Error("no input given", "dynaguide track", "give a scene file, or --left and --right");
+    }
+    scene.video = VideoOf(input);
+    scene.path = "the command line";
   }
-  if (left.empty() || right.empty())
-    throw Error("no input given", "dynaguide track", "give a scene file, or --left and --right");
-  if (calibration_path.empty())
+  if (!input.calibration.empty()) scene.calibration = input.calibration;
+  if (scene.calibration.empty()) {
     throw Error("no calibration given", "dynaguide track", "give --calib calib.yaml (made by dynaguide calibrate)");
-
-  stages::CaptureStage::Options capture;
-  capture.left_path = left;
-  capture.right_path = right;
-  if (IsImagePath(left)) {
-    capture.layout = stages::CaptureStage::Layout::kImageSequences;
-    capture.fps = fps > 0 ? fps : 1;
   }
-  capture_ = std::make_unique<stages::CaptureStage>(capture);
-
-  io::StereoCalibration calibration = io::ReadStereoCalibration(calibration_path);
-  rectify_ = std::make_unique<stages::RectifyStage>(stages::RectifyStage::Options{}, calibration);
-  if (rectify_->camera().size != capture_->size()) {
-    throw Error("the video is " + std::to_string(size().width) + "x" + std::to_string(size().height) +
-                    " but the calibration is for " + std::to_string(rectify_->camera().size.width) + "x" +
-                    std::to_string(rectify_->camera().size.height),
-                calibration_path, "use the calibration of the camera and resolution that recorded the video");
-  }
-  calibration.rectification = rectify_->rectification();
-
-  tracker_ = std::make_unique<stages::FeatureTracker>(
-      stages::OptionsForDepthRange(calibration, input.near_m, input.far_m), calibration);
+  // Cut after tracking: nothing to register, simulate or draw.
+  scene.registration.reset();
+  scene.simulation.reset();
+  scene.preoperative.reset();
+  scene.overlays.reset();
+  return scene;
 }
 
-FrontEnd::~FrontEnd() {
-  try {
-    decoding_.wait();
-  } catch (...) {  // an error of a frame nobody asked for any more
-  }
-}
-
-void FrontEnd::StartCapture() {
-  decoding_started_ = true;
-  decoding_.run([this] {
-    decoded_ = capture_->Next();
-    if (!decoded_) return;
-    // Grey before rectification: the tracker needs grey, and remapping one channel is a third of the work.
-    stages::ConvertToGrey(decoded_->left, decoded_->left);
-    stages::ConvertToGrey(decoded_->right, decoded_->right);
-  });
-}
-
-std::optional<stages::StereoFrame> FrontEnd::Captured() {
-  if (!decoding_started_) StartCapture();
-  decoding_.wait();
-  decoding_started_ = false;
-  return std::exchange(decoded_, std::nullopt);
-}
-
-void FrontEnd::Skip(std::int64_t count) {
-  for (std::int64_t i = 0; i < count && Captured(); ++i) {
-  }
-}
-
-std::optional<FrontEndFrame> FrontEnd::Next(FrontEndTimings* timings) {
-  FrontEndTimings spent;
-  auto start = std::chrono::steady_clock::now();
-  std::optional<stages::StereoFrame> raw = Captured();
-  if (!raw) return std::nullopt;
-  StartCapture();  // the next frame, while this one is rectified and tracked
-  spent.capture_ms = MsSince(start);
-
-  start = std::chrono::steady_clock::now();
-  const stages::RectifiedPair pair = rectify_->Process(*raw);
-  spent.rectify_ms = MsSince(start);
-
-  FrontEndFrame frame{pair.index, pair.t_s, tracker_->Process(pair.left, pair.right, &spent.track)};
-  if (timings) *timings = spent;
-  return frame;
+pipeline::FrontEndSettings FrontEndSettingsOf(const FrontEndInput& input) {
+  pipeline::FrontEndSettings settings;
+  settings.near_m = input.near_m;
+  settings.far_m = input.far_m;
+  return settings;
 }
 
 }  // namespace dg::tools

@@ -4,6 +4,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "pipeline/stop_request.h"
 #include "sim/error.h"
 #include "tools/commands.h"
 #include "tools/track/track_run.h"
@@ -30,16 +31,17 @@ void AddTrackCommand(CLI::App& app) {
   command->add_option("--left", options->input.left, "Left video, image sequence (printf or glob) or image");
   command->add_option("--right", options->input.right, "Right video, image sequence or image");
   command->add_option("--calib", options->input.calibration, "Stereo calibration YAML (overrides the scene's)");
-  command->add_option("--fps", options->input.fps, "Frame rate of image sequences");
+  command->add_option("--fps", options->input.fps, "Frame rate (needed for image sequences; overrides the scene's)");
   command->add_option("--near", options->input.near_m, "Nearest depth matched, metres (sets the disparity range)")
       ->capture_default_str();
   command->add_option("--far", options->input.far_m, "Farthest depth matched, metres")->capture_default_str();
-  command->add_option("--out", options->out_h5, "Tracks as HDF5 (/tracks/..., written as it goes; root attribute complete = 1 at the end)")->required();
+  command->add_option("--out", options->out_h5, "Tracks as HDF5 (/tracks/..., written as it goes; root attribute complete = 1 at the end); its folder is created")->required();
   command->add_option("--csv", options->out_csv, "Tracks as CSV too");
   command->add_option("--frames", *frames, "Frame range A:B (B exclusive)");
   command->callback([options, frames] {
     if (!frames->empty()) ParseFrameRange(*frames, options.get());
     options->progress = true;
+    pipeline::InstallStopOnSignals();  // a signal stops the run with its table finished (docs/interrupts.md)
     const TrackRunSummary s = RunTrack(*options);
     std::printf("tracked %d frames: %zu points, %lld tracks, %.1f ms/frame; saved %s%s%s\n", s.frames, s.rows,
                 static_cast<long long>(s.tracks), s.ms_per_frame, options->out_h5.c_str(),

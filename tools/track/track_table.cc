@@ -9,7 +9,6 @@ TrackTable::TrackTable(const std::string& h5_path, const std::string& csv_path)
     : h5_(h5_path), table_(h5_, "/tracks", stages::TrackRowColumns()), csv_path_(csv_path) {
   h5_.WriteAttribute("/", "complete", 0);
   h5_.WriteAttribute("/tracks", "frames", 0);
-  h5_.WriteAttribute("/tracks/kind", "values", std::string("0 corner, 1 MSER"));
   h5_.Flush();
   if (csv_path_.empty()) return;
   csv_.open(csv_path_);
