@@ -174,6 +174,9 @@ H5Table::H5Table(H5Writer& file, const std::string& group, std::vector<H5Column>
     H5Fclose(file_);
     throw;
   }
+  for (const H5Column& column : columns_) {
+    if (!column.values.empty()) file.WriteAttribute(group + "/" + column.name, "values", column.values);
+  }
 }
 
 H5Table::H5Table(H5Table&& other) noexcept

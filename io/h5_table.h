@@ -20,6 +20,9 @@ struct H5Column {
   std::string name;  // the dataset's name inside the table's group, e.g. "start_ns"
   H5Type type;
   std::size_t width = 1;
+  // For a coded column, what its values mean (e.g. "0 corner, 1 MSER"): the
+  // dataset's text attribute `values`, so a reader of the file need not guess.
+  std::string values;
 };
 
 // The values of one column for a block of rows: rows * width values in row

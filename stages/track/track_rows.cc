@@ -10,7 +10,7 @@ void Append(const Eigen::Vector2d& v, std::vector<double>* column) { column->ins
 std::vector<io::H5Column> TrackRowColumns() {
   using io::H5Type;
   return {{"frame", H5Type::kInt32},       {"t_s", H5Type::kDouble},
-          {"id", H5Type::kInt32},          {"kind", H5Type::kUInt8},
+          {"id", H5Type::kInt32},          {"kind", H5Type::kUInt8, 1, "0 corner, 1 MSER"},
           {"uv_left_R_px", H5Type::kDouble, 2}, {"uv_right_R_px", H5Type::kDouble, 2},
           {"uv_left_px", H5Type::kDouble, 2},   {"uv_right_px", H5Type::kDouble, 2},
           {"xyz_C_m", H5Type::kDouble, 3}, {"quality", H5Type::kDouble}};

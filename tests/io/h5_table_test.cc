@@ -90,7 +90,7 @@ TEST_CASE("h5 table: rows and blocks read back through the HDF5 C API", "[io][un
     H5Writer file(path);
     file.WriteString("/scene", "text before the table");
     H5Table table(file, "/run/timings",
-                  {{"frame", H5Type::kInt64}, {"stage", H5Type::kInt32}, {"kind", H5Type::kUInt8},
+                  {{"frame", H5Type::kInt64}, {"stage", H5Type::kInt32}, {"kind", H5Type::kUInt8, 1, "0 a, 1 b, 2 c"},
                    {"xyz_m", H5Type::kDouble, 3}, {"quality", H5Type::kFloat}},
                   {.chunk_rows = 4, .deflate_level = 6});
     // Row i: frame kBigFrame + i, stage 2i,
@@ -157,6 +157,7 @@ TEST_CASE("h5 table: rows and blocks read back through the HDF5 C API", "[io][un
   H5Reader reader(path);
   CHECK(reader.ReadString("/scene") == "text before the table");
   CHECK(reader.ReadAttribute<std::int64_t>("/", "complete") == 1);
+  CHECK(reader.ReadAttribute<std::string>("/run/timings/kind", "values") == "0 a, 1 b, 2 c");
 }
 
 // A process that dies without closing anything leaves a readable file holding

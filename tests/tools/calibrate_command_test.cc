@@ -80,9 +80,9 @@ TEST_CASE("calibrate command: OpenCV's chessboard pairs to YAML and JSON", "[too
   std::stringstream text;
   text << std::ifstream(json).rdbuf();
   CHECK(JsonNumber(text.str(), "views_used") == 13);  // left10/right10 are not shipped
-  CHECK(JsonNumber(text.str(), "rms_stereo") <= 0.46);
+  CHECK(JsonNumber(text.str(), "rms_stereo_px") <= 0.46);
   CHECK(JsonNumber(text.str(), "epipolar_error_px") <= 0.30);
-  CHECK(JsonNumber(text.str(), "rms_left") > 0);
+  CHECK(JsonNumber(text.str(), "rms_left_px") > 0);
   CHECK(JsonNumber(text.str(), "baseline_m") == Approx(cv::norm(T)).epsilon(1e-6));
 }
 

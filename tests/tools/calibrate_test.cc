@@ -95,7 +95,7 @@ TEST_CASE("calibrate: OpenCV's real chessboard pairs, with a rejected view named
   REQUIRE((read.rectification->P2 - report.calibration.rectification->P2).norm() < 1e-9);
   std::stringstream text;
   text << std::ifstream(json).rdbuf();
-  for (const char* key : {"\"rms_left\"", "\"rms_right\"", "\"rms_stereo\"", "\"epipolar_error_px\"",
+  for (const char* key : {"\"rms_left_px\"", "\"rms_right_px\"", "\"rms_stereo_px\"", "\"epipolar_error_px\"",
                           "\"views_used\": 13"}) {
     REQUIRE_THAT(text.str(), Catch::Contains(key));
   }

@@ -113,7 +113,16 @@ TEST_CASE("register tool: scenes that cannot be registered are refused with a fi
   SECTION("a window longer than the video") {
     options.scene = TinyScene();
     options.cycles = 2;  // the video holds 1.5
-    CHECK_THROWS_WITH(RunRegister(options), Contains("the video holds"));
+    CHECK_THROWS_WITH(RunRegister(options), Contains("the video holds") && Contains("--cycles asks for 2"));
+  }
+  SECTION("the scene's window, without --cycles, longer than the video") {
+    const std::string text = std::regex_replace(Text(TinyScene()), std::regex("registration:\n  cycles: [0-9.]+"),
+                                                "registration:\n  cycles: 2");
+    REQUIRE(text.find("registration:\n  cycles: 2") != std::string::npos);
+    const std::string scene = (dir / "two_cycles.yaml").string();
+    std::ofstream(scene) << text;
+    options.scene = scene;
+    CHECK_THROWS_WITH(RunRegister(options), Contains("the video holds") && Contains("registration.cycles asks for 2"));
   }
 }
 

@@ -68,6 +68,7 @@ TEST_CASE("run: the tiny phantom end to end, and its report", "[tools][integrati
   CHECK(IntAttribute(file, "/", "threads") == 2);
   CHECK(StringAttribute(file, "/", "policy") == "offline");
   CHECK_FALSE(StringAttribute(file, "/", "version").empty());
+  CHECK(StringAttribute(file, "/tracks/kind", "values") == "0 corner, 1 MSER");
   CHECK(StringAttribute(file, "/timings", "stage_names") ==
         "capture,rectify,track,register,constraints,simulate,composite,sink");
   // One row per stage per frame, in every column.

@@ -39,7 +39,7 @@ void WriteReportJson(const std::string& path, const StereoCalibrationReport& rep
   std::ofstream file(path);
   if (!file) throw Error("cannot write the JSON report", path, "check that the directory exists and is writable");
   file << "{\n"
-       << Format("  \"rms_left\": %.6f,\n  \"rms_right\": %.6f,\n  \"rms_stereo\": %.6f,\n", report.rms_left_px,
+       << Format("  \"rms_left_px\": %.6f,\n  \"rms_right_px\": %.6f,\n  \"rms_stereo_px\": %.6f,\n", report.rms_left_px,
                  report.rms_right_px, report.rms_stereo_px)
        << Format("  \"epipolar_error_px\": %.6f,\n  \"baseline_m\": %.9f,\n", report.epipolar_error_px,
                  report.calibration.T_m.norm())

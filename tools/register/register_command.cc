@@ -17,10 +17,11 @@ void AddRegisterCommand(CLI::App& app) {
       app.add_subcommand("register", "Register the 4D scan to the stereo video in space and time (paper section 2.2)");
   command->add_option("scene", options->scene, "Scene file (scene.yaml) with preoperative data, video and calibration")
       ->required();
-  command->add_option("--cycles", options->cycles, "Cardiac cycles to register over")->capture_default_str();
+  command->add_option("--cycles", options->cycles,
+                      "Cardiac cycles to register over (default: the scene's registration.cycles, else 3)");
   command->add_option("--fiducials-uv", options->fiducials_uv,
                       "Fiducials' pixels in the first left frame, one u,v line each in the scan's order "
-                      "(default: the scene's truth, if any)");
+                      "(default: the scene's registration.fiducials_uv, else its truth's)");
   command->add_flag("--ct-beads", options->ct_beads, "Find the fiducials as beads in the CT volumes instead of reading the scan file");
   command->add_option("--json", *json_path, "Save the result as JSON");
   command->add_option("--out", *out_path, "Save the registration as YAML for a scene to reuse");

@@ -56,9 +56,18 @@ RegistrationError CompareWithTruth(const io::Registration& registration, const E
   return error;
 }
 
-RegisterRunSummary RunRegister(const RegisterRunOptions& options) {
-  if (!(options.cycles >= 1)) throw Error("--cycles must be at least 1", "dynaguide register", "register over whole cycles");
-  const io::Scene scene = io::ReadScene(options.scene);
+RegisterRunSummary RunRegister(const RegisterRunOptions& given) {
+  const io::Scene scene = io::ReadScene(given.scene);
+  // What the command line leaves out, the scene's registration block says, as it does for `run`.
+  const io::Scene::Registration window = scene.registration.value_or(io::Scene::Registration{});
+  RegisterRunOptions options = given;
+  if (options.cycles == 0) options.cycles = window.cycles;
+  if (options.fiducials_uv.empty()) options.fiducials_uv = window.fiducials_uv;
+  const std::string cycles_from = given.cycles == 0 ? "the scene's registration.cycles" : "--cycles";
+  if (!(options.cycles >= 1)) {
+    throw Error(cycles_from + " must be at least 1, got " + std::to_string(options.cycles), scene.path,
+                "register over whole cycles");
+  }
   if (!scene.preoperative) {
     throw Error("the scene has no preoperative data (period, phases, scan)", scene.path,
                 "add a preoperative: block with period_s, phases, motion and ct");
@@ -125,7 +134,7 @@ RegisterRunSummary RunRegister(const RegisterRunOptions& options) {
   const double frame_s = summary.frames > 1 ? (tracks.t_s.back() - tracks.t_s.front()) / (summary.frames - 1) : 0;
   const double held_cycles = summary.frames > 1 ? (tracks.t_s.back() - tracks.t_s.front() + frame_s) / scan.period_s : 0;
   if (held_cycles < options.cycles - 1e-6) {
-    throw Error("the video holds " + std::to_string(held_cycles) + " cycles but --cycles asks for " +
+    throw Error("the video holds " + std::to_string(held_cycles) + " cycles but " + cycles_from + " asks for " +
                     std::to_string(options.cycles),
                 scene.path, "register over fewer cycles, or record longer");
   }

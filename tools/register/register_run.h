@@ -9,8 +9,8 @@ namespace dg::tools {
 
 struct RegisterRunOptions {
   std::string scene;          // scene.yaml with preoperative data, video and calibration
-  double cycles = 3;          // the window, in scan periods
-  std::string fiducials_uv;   // first-frame left pixels of the fiducials (ReadFiducialPixels); else the scene's truth
+  double cycles = 0;          // the window, in scan periods; 0: the scene's registration.cycles
+  std::string fiducials_uv;   // first-frame left pixels of the fiducials (ReadFiducialPixels); else the scene's, else its truth's
   bool ct_beads = false;      // the fiducials' scan positions from the CT's beads instead of the scan file
   stages::RegistrationOptions solver;
   bool progress = false;      // on stderr
