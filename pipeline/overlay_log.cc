@@ -6,7 +6,8 @@ OverlayLog::OverlayLog(io::RunLog& log, std::vector<std::shared_ptr<OverlayBranc
     : log_(log),
       overlays_(std::move(overlays)),
       ages_(log.AddTable("/composite", {{"frame", io::H5Type::kInt64},
-                                        {"layer_age_frames", io::H5Type::kInt64, overlays_.size()}})) {
+                                        {"layer_age_frames", io::H5Type::kInt64, overlays_.size()}})),
+      composed_(overlays_.size(), false) {
   std::string names;
   for (const auto& overlay : overlays_) names += (names.empty() ? "" : ",") + overlay->name();
   log_.file().WriteAttribute("/composite", "overlay_names", names);
@@ -15,6 +16,24 @@ OverlayLog::OverlayLog(io::RunLog& log, std::vector<std::shared_ptr<OverlayBranc
 void OverlayLog::Consume(const FramePacket& packet) {
   if (packet.layer_age_frames.size() != overlays_.size()) return;  // not composed (the run stopped early)
   ages_.AppendRow({packet.index, packet.layer_age_frames});
+  any_frame_ = true;
+  for (size_t k = 0; k < overlays_.size(); ++k) composed_[k] = composed_[k] || packet.layer_age_frames[k] >= 0;
+}
+
+std::string OverlayLog::MissingOverlays() const {
+  if (!any_frame_) return {};
+  std::string missing;
+  for (size_t k = 0; k < overlays_.size(); ++k) {
+    if (composed_[k]) continue;
+    const OverlayBranch& overlay = *overlays_[k];
+    missing += (missing.empty() ? "" : "; ") + overlay.name() + " (geometry handed over " +
+               std::to_string(overlay.published()) + " times, drawn " + std::to_string(overlay.drawn()) + " times)";
+  }
+  if (missing.empty()) return {};
+  // Overlays draw beside the chain of frames at their own pace and never hold
+  // it (SideBranch, pipeline/stage_graph.h): offline, a short simulated range
+  // can end before a drawing does.
+  return "no layer of " + missing + " reached the video: each drawing finished after the last frame was composed";
 }
 
 void OverlayLog::Finish(std::int64_t start_steady_ns) {
@@ -37,6 +56,7 @@ void OverlayLog::Finish(std::int64_t start_steady_ns) {
     log_.file().WriteAttribute("/overlay_timings", name + "_drawn", overlay.drawn());
   }
   table.Flush();
+  log_.file().WriteAttribute("/composite", "missing_overlays", MissingOverlays());
 }
 
 }  // namespace dg::pipeline

@@ -2,6 +2,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <string>
 #include <vector>
 
 #include "io/h5_table.h"
@@ -15,7 +16,9 @@ namespace dg::pipeline {
 //   /composite        per composed frame: frame, layer_age_frames (one
 //                     column per overlay, in drawing order: frames since the
 //                     geometry of the layer that was laid over it; -1 none yet);
-//                     attribute overlay_names;
+//                     attributes overlay_names and, after the run,
+//                     missing_overlays (MissingOverlays(): empty when every
+//                     overlay reached the video);
 //   /overlay_timings  per draw: frame, overlay (index), start_ns, end_ns on
 //                     the run clock; attributes <name>_published, _dropped
 //                     and _drawn per overlay.
@@ -27,10 +30,17 @@ class OverlayLog {
   // After the run: the draws' timings and counts. start_steady_ns: the run clock's zero.
   void Finish(std::int64_t start_steady_ns);
 
+  // The overlays none of whose layers was laid over a composed frame, and
+  // why, as a sentence for the run to say; empty when each overlay reached
+  // the video or no frame was composed with overlays at all.
+  std::string MissingOverlays() const;
+
  private:
   io::RunLog& log_;
   std::vector<std::shared_ptr<OverlayBranch>> overlays_;
   io::H5Table& ages_;
+  std::vector<bool> composed_;  // per overlay: a layer of it was laid over a frame
+  bool any_frame_ = false;      // a frame was composed with the overlays
 };
 
 }  // namespace dg::pipeline

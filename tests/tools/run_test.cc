@@ -4,8 +4,11 @@
 // stage leaves a readable log marked incomplete; the report recomputes the
 // run's summary from the saved log. With --video-layout side_by_side the video
 // and the snapshots show both eyes, each with its own eye's overlays.
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
+#include <sstream>
+#include <string>
 #include <vector>
 
 #include <catch2/catch.hpp>
@@ -155,6 +158,26 @@ TEST_CASE("run: side by side, the video and the snapshots show both eyes", "[too
   REQUIRE(video.get(cv::CAP_PROP_FRAME_WIDTH) == 2 * eye.width);
   REQUIRE(video.get(cv::CAP_PROP_FRAME_HEIGHT) == eye.height);
   REQUIRE(CountFrames(outcome.video_path) == 30);
+
+  // Whether a layer reached the video here depends on the machine's pace; the
+  // log must say which: an overlay is named missing exactly when none of its
+  // layers was laid over a frame.
+  const hid_t file = H5Fopen((options.out_dir + "/run.h5").c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+  REQUIRE(file >= 0);
+  const std::string missing = StringAttribute(file, "/composite", "missing_overlays");
+  const std::vector<double> ages = Doubles(file, "/composite/layer_age_frames");
+  const std::string names = StringAttribute(file, "/composite", "overlay_names");
+  H5Fclose(file);
+  const size_t overlays = static_cast<size_t>(std::count(names.begin(), names.end(), ',')) + 1;
+  std::stringstream name_list(names);
+  for (size_t k = 0; k < overlays; ++k) {
+    std::string overlay;
+    std::getline(name_list, overlay, ',');
+    bool reached = false;
+    for (size_t row = 0; row < ages.size() / overlays; ++row) reached = reached || ages[row * overlays + k] >= 0;
+    INFO(overlay << ": missing_overlays '" << missing << "'");
+    CHECK(reached == (missing.find(overlay + " (") == std::string::npos));
+  }
 
   char name[64];
   std::snprintf(name, sizeof name, "/composite_%05d.png", snapshot);

@@ -148,7 +148,13 @@ RunOutcome RunScene(const RunOptions& options) {
   pipeline::RunLogSink sink(log, std::move(consumers));
   const pipeline::GraphRunResult result = built.graph->Run(sink);
   progress.Finish();
-  if (overlay_log) overlay_log->Finish(result.start_steady_ns);
+  if (overlay_log) {
+    overlay_log->Finish(result.start_steady_ns);
+    if (const std::string missing = overlay_log->MissingOverlays(); !missing.empty()) {
+      Logger("run").warn("{}; the overlays draw beside the frames at their own pace, and this range ended first "
+                         "(run a longer range, or in real time)", missing);
+    }
+  }
   if (video) {
     video->Close();
     outcome.video_frames_dropped = static_cast<std::int64_t>(video->dropped());
