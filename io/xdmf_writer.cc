@@ -1,5 +1,6 @@
 #include "io/xdmf_writer.h"
 
+#include <algorithm>
 #include <cerrno>
 #include <charconv>
 #include <cmath>
@@ -144,7 +145,10 @@ const std::vector<Attribute> kNoAttributes;
 struct Step {
   double t_s;
   std::vector<Attribute> attributes;
+  std::string geometry;  // the step's own node positions; empty: the reference's
 };
+
+constexpr char kReferenceGeometry[] = "/mesh/geometry_m";
 
 }  // namespace
 
@@ -154,11 +158,19 @@ struct XdmfTimeSeriesWriter::Impl {
   int num_nodes = 0, num_tets = 0;
   hid_t file = -1;
   bool closed = false;
+  XdmfSeriesOptions options;
+  Eigen::Matrix3Xd reference_m;  // kept for the deformed geometry
   std::vector<Step> steps;
+  size_t listed = 0;  // steps the .xmf on disk lists
+
+  bool XmfDue() const {
+    const size_t unlisted = steps.size() - listed;
+    return unlisted > 0 && (options.xmf_every_step || unlisted >= std::max<size_t>(1, steps.size() / 16));
+  }
 
   void WriteGrid(std::ostream& xml, const std::string& indent, const std::string& name,
                  const Step* step) const;
-  void WriteXmf() const;
+  void WriteXmf();
   std::vector<Attribute> WriteStep(hid_t group, const std::string& prefix,
                                    const Eigen::Matrix3Xd& displacement_m,
                                    const MeshFields& fields) const;
@@ -178,7 +190,8 @@ void XdmfTimeSeriesWriter::Impl::WriteGrid(std::ostream& xml, const std::string&
       << "\">\n";
   item(std::to_string(num_tets) + " 4", "Int", 4, "/mesh/topology");
   xml << indent << "  </Topology>\n" << indent << "  <Geometry GeometryType=\"XYZ\">\n";
-  item(std::to_string(num_nodes) + " 3", "Float", 8, "/mesh/geometry_m");
+  item(std::to_string(num_nodes) + " 3", "Float", 8,
+       step && !step->geometry.empty() ? step->geometry : kReferenceGeometry);
   xml << indent << "  </Geometry>\n";
   // A bare mesh (no step yet) has no time and no attributes.
   for (const Attribute& attribute : step ? step->attributes : kNoAttributes) {
@@ -195,7 +208,7 @@ void XdmfTimeSeriesWriter::Impl::WriteGrid(std::ostream& xml, const std::string&
 
 // Rewritten whole after each step and renamed into place, so a reader never
 // sees a half-written description.
-void XdmfTimeSeriesWriter::Impl::WriteXmf() const {
+void XdmfTimeSeriesWriter::Impl::WriteXmf() {
   std::ostringstream xml;
   xml << "<?xml version=\"1.0\" encoding=\"utf-8\"?>\n<Xdmf Version=\"3.0\">\n  <Domain>\n";
   if (steps.empty()) {
@@ -227,6 +240,7 @@ void XdmfTimeSeriesWriter::Impl::WriteXmf() const {
     std::filesystem::remove(temporary, ignored);
     throw Error("cannot rename to the XDMF description: " + error.message(), xmf_path, kFix);
   }
+  listed = steps.size();
 }
 
 std::vector<Attribute> XdmfTimeSeriesWriter::Impl::WriteStep(hid_t group, const std::string& prefix,
@@ -258,11 +272,22 @@ std::vector<Attribute> XdmfTimeSeriesWriter::Impl::WriteStep(hid_t group, const 
   return attributes;
 }
 
-XdmfTimeSeriesWriter::XdmfTimeSeriesWriter(const std::string& path, const sim::TetMesh& mesh)
+XdmfTimeSeriesWriter::XdmfTimeSeriesWriter(const std::string& path, const sim::TetMesh& mesh,
+                                           const XdmfSeriesOptions& options)
     : impl_(std::make_unique<Impl>()) {
   Impl& impl = *impl_;
-  impl.h5_path = path + ".h5";
+  impl.options = options;
   impl.xmf_path = path + ".xmf";
+  if (options.h5_file_name.empty()) {
+    impl.h5_path = path + ".h5";
+  } else if (std::filesystem::path(options.h5_file_name).has_parent_path() ||
+             options.h5_file_name == std::filesystem::path(impl.xmf_path).filename()) {
+    throw Error("the data file's name '" + options.h5_file_name + "' is a path or the description's own name",
+                impl.xmf_path, "give a plain file name other than the .xmf's");
+  } else {
+    impl.h5_path = (std::filesystem::path(impl.xmf_path).parent_path() / options.h5_file_name).string();
+  }
+  if (options.deformed_geometry) impl.reference_m = mesh.X_m;
   impl.h5_reference = XmlEscape(std::filesystem::path(impl.h5_path).filename().string());
   impl.num_nodes = mesh.num_nodes();
   impl.num_tets = mesh.num_tets();
@@ -328,17 +353,24 @@ void XdmfTimeSeriesWriter::Append(double t_s, const Eigen::Matrix3Xd& displaceme
   hsize_t values = displacement_m.size();
   for (const auto& [name, data] : fields.point_data) values += data.size();
   for (const auto& [name, data] : fields.cell_data) values += data.size();
+  if (impl.options.deformed_geometry) values += displacement_m.size();
   // The step's datasets, its groups and a new chunk of /time_s at most.
   const hsize_t metadata = (4 + fields.point_data.size() + fields.cell_data.size()) * kMetadataBytes;
   ReserveSpace(impl.file, values * sizeof(double) + metadata, impl.h5_path + ", " + step_name);
   {
     Handle group(CreateGroup(impl.file, group_name, impl.h5_path), H5Gclose);
     step.attributes = impl.WriteStep(group.get(), group_name, displacement_m, fields);
+    if (impl.options.deformed_geometry) {
+      const Eigen::Matrix3Xd deformed_m = impl.reference_m + displacement_m;
+      WriteDataset(group.get(), "geometry_m", H5T_NATIVE_DOUBLE, deformed_m.data(), impl.num_nodes, 3,
+                   impl.h5_path);
+      step.geometry = std::string(group_name) + "/geometry_m";
+    }
   }
   AppendTime(impl.file, impl.steps.size(), t_s, impl.h5_path);
   Checked(H5Fflush(impl.file, H5F_SCOPE_GLOBAL), "flush the file", impl.h5_path);
   impl.steps.push_back(std::move(step));
-  impl.WriteXmf();
+  if (impl.XmfDue()) impl.WriteXmf();
 }
 
 void XdmfTimeSeriesWriter::Close(bool complete) {
@@ -358,8 +390,12 @@ void XdmfTimeSeriesWriter::Close(bool complete) {
   if (const std::string problem = h5::CloseFile(impl.file, impl.h5_path); !problem.empty()) {
     throw Error(problem, impl.h5_path, kFix);
   }
+  // After the .h5 is closed: the description lists nothing the file may lack.
+  if (impl.listed != impl.steps.size()) impl.WriteXmf();
 }
 
 int XdmfTimeSeriesWriter::num_steps() const { return static_cast<int>(impl_->steps.size()); }
+const std::string& XdmfTimeSeriesWriter::h5_path() const { return impl_->h5_path; }
+const std::string& XdmfTimeSeriesWriter::xmf_path() const { return impl_->xmf_path; }
 
 }  // namespace dg::io

@@ -16,6 +16,7 @@
 #include "io/gmsh_mesher.h"
 #include "io/h5_file.h"
 #include "io/metaimage.h"
+#include "io/xdmf_writer.h"
 #include "io/surface_mesh.h"
 #include "sim/error.h"
 #include "stages/camera_model.h"
@@ -239,6 +240,24 @@ void WriteChessboards(const PhantomSpec& spec, const StereoRig& rig, DistortedVi
   truth->WriteMatrix("/calibration/inner_corners_B_m", corners_B);
 }
 
+// scan.xmf: the scan's per-phase node displacement on the phantom's mesh, for
+// ParaView (one step per phase at its time in the cycle, the deformed
+// positions as each step's geometry), its data in scan_series.h5 beside
+// scan.h5. displacement: [phase][node][xyz], as scan.h5 holds it.
+void WriteScanSeries(const std::string& out_dir, const sim::TetMesh& mesh, const std::vector<double>& displacement,
+                     int phases, double period_s) {
+  io::XdmfSeriesOptions options;
+  options.deformed_geometry = true;
+  options.h5_file_name = "scan_series.h5";
+  io::XdmfTimeSeriesWriter series(out_dir + "/scan", mesh, options);
+  const Eigen::Index values = 3 * Eigen::Index(mesh.num_nodes());
+  for (int k = 0; k < phases; ++k) {
+    series.Append(period_s * k / phases,
+                  Eigen::Map<const Eigen::Matrix3Xd>(displacement.data() + k * values, 3, mesh.num_nodes()), {});
+  }
+  series.Close(true);
+}
+
 }  // namespace
 
 std::string PhantomSummary::Describe() const {
@@ -331,6 +350,7 @@ PhantomSummary GeneratePhantom(const PhantomSpec& spec, const std::string& out_d
     scan.WriteMatrix("/internal_points_S_m", Eigen::MatrixXd(assets.internal_points_S.transpose()));
     scan.WriteAttribute("/", "period_s", period);
     scan.WriteAttribute("/", "phases", spec.phases);
+    WriteScanSeries(out_dir, mesh, displacement, spec.phases, period);
   }
 
   io::WriteStereoCalibration(out_dir + "/calibration.yaml", rig.calibration);

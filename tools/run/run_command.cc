@@ -21,6 +21,7 @@ struct RunArguments {
   bool print_graph = false;
   bool quiet = false;
   bool no_video = false;
+  bool mesh_series = false, no_mesh_series = false;
 };
 
 // "A:B" (frames A to B-1), "A:" or ":B".
@@ -57,6 +58,7 @@ void RunRunCommand(RunArguments& args) {
   ParseDropFrames(args.drop, &options.graph);
   options.progress = !args.quiet;
   options.video = !args.no_video;
+  if (args.mesh_series || args.no_mesh_series) options.mesh_series = args.mesh_series;
   options.video_layout =
       args.video_layout == "side_by_side" ? pipeline::VideoLayout::kSideBySide : pipeline::VideoLayout::kLeft;
   if (args.print_graph) {
@@ -68,6 +70,9 @@ void RunRunCommand(RunArguments& args) {
   std::printf("dynaguide run: %s\n%s", outcome.log_path.c_str(), outcome.statistics.Text().c_str());
   if (!outcome.registration_path.empty()) {
     std::printf("registration: %s (a scene reuses it as registration: {file: ...})\n", outcome.registration_path.c_str());
+  }
+  if (!outcome.mesh_series_path.empty()) {
+    std::printf("mesh series: %s (ParaView plays it: File > Open, then Play)\n", outcome.mesh_series_path.c_str());
   }
   if (!outcome.video_path.empty()) {
     std::printf("annotated video: %s (%lld frames dropped by the encoder)\n", outcome.video_path.c_str(),
@@ -110,6 +115,12 @@ void AddRunCommand(CLI::App& app) {
       ->capture_default_str();
   command->add_flag("--print-graph", args->print_graph, "Print the graph's nodes and edges and exit");
   command->add_flag("--no-video", args->no_video, "Do not write the annotated video");
+  CLI::Option* mesh_series = command->add_flag(
+      "--mesh-series", args->mesh_series,
+      "Write the simulated mesh per frame as mesh_series.xmf + .h5 (XDMF, for ParaView): displacement, tied nodes "
+      "and recovered forces (default: on when the frames read x the mesh's nodes are at most " +
+          std::to_string(kMeshSeriesDefaultNodeFrames) + ")");
+  command->add_flag("--no-mesh-series", args->no_mesh_series, "Do not write the mesh series")->excludes(mesh_series);
   command->add_option("--video-layout", args->video_layout,
                       "left (the left frame, W x H) | side_by_side (left and right frames, 2W x H, each with its "
                       "eye's overlays: the right eye's are drawn only then); for the video and the snapshots")

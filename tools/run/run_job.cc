@@ -15,6 +15,7 @@
 #include "io/scene.h"
 #include "pipeline/annotated_video.h"
 #include "pipeline/error_log.h"
+#include "pipeline/mesh_series_sink.h"
 #include "pipeline/overlay_log.h"
 #include "pipeline/run_log_sink.h"
 #include "pipeline/simulation_log.h"
@@ -67,10 +68,33 @@ void CheckSnapshots(const RunOptions& options, int recording_frames) {
   }
 }
 
+// Whether the run writes the mesh series: as asked, else when frames x nodes
+// stays within kMeshSeriesDefaultNodeFrames.
+// @throws dg::Error when asked for in a scene without simulation.
+bool WantsMeshSeries(const RunOptions& options, const pipeline::SceneGraph& built, const std::string& scene_path,
+                     int recording_frames) {
+  if (!built.simulation) {
+    if (options.mesh_series.value_or(false)) {
+      throw Error("--mesh-series asks for the simulated mesh, and the scene has no simulation", scene_path,
+                  "add a simulation: block to the scene, or leave out --mesh-series");
+    }
+    return false;
+  }
+  if (options.mesh_series) return *options.mesh_series;
+  const std::int64_t node_frames = FramesInRange(options.graph, recording_frames) * built.simulation->mesh.num_nodes();
+  const bool on = node_frames <= kMeshSeriesDefaultNodeFrames;
+  Logger("run").info("mesh series {}: {} frames x {} nodes is {} the default's bound of {} ({} to choose)",
+                     on ? "written" : "not written", FramesInRange(options.graph, recording_frames),
+                     built.simulation->mesh.num_nodes(), on ? "within" : "above", kMeshSeriesDefaultNodeFrames,
+                     on ? "--no-mesh-series" : "--mesh-series");
+  return on;
+}
+
 }  // namespace
 
 std::vector<std::string> RunOutputNames() {
-  return {"run.h5", "run.h5.part", "annotated.avi", "registration.yaml", "composite_*.png"};
+  return {"run.h5",          "run.h5.part",         "annotated.avi",  "registration.yaml",
+          "composite_*.png", "mesh_series.xmf",     "mesh_series.xmf.tmp", "mesh_series.h5"};
 }
 
 std::string DescribeRunGraph(const RunOptions& options) {
@@ -85,6 +109,7 @@ RunOutcome RunScene(const RunOptions& options) {
   pipeline::SceneGraph built = BuildRunGraph(scene, options);
   const pipeline::PacketSource& source = built.graph->source();
   CheckSnapshots(options, source.frame_count());
+  const bool write_mesh_series = WantsMeshSeries(options, built, scene.path, source.frame_count());
 
   std::vector<std::string> inputs;
   if (scene.registration && !scene.registration->file.empty()) inputs.push_back(scene.registration->file);
@@ -109,6 +134,11 @@ RunOutcome RunScene(const RunOptions& options) {
                       scene.preoperative ? stages::ReadFiducialMotion(scene.preoperative->motion)
                                          : stages::FiducialMotion{});
     consumers.push_back([&](const pipeline::FramePacket& packet) { error_log->Consume(packet); });
+  }
+  std::optional<pipeline::MeshSeriesSink> mesh_series;
+  if (write_mesh_series) {
+    mesh_series.emplace((fs::path(options.out_dir) / "mesh_series").string(), built.simulation);
+    consumers.push_back([&](const pipeline::FramePacket& packet) { mesh_series->Consume(packet); });
   }
   std::optional<pipeline::OverlayLog> overlay_log;
   if (!built.overlays.empty()) {
@@ -172,6 +202,19 @@ RunOutcome RunScene(const RunOptions& options) {
     io::WriteRegistrationYaml(outcome.registration_path, *simulation_log.registration());
   }
   log.file().WriteAttribute("/", "simulated_frames", outcome.simulated_frames);
+  if (mesh_series) {
+    outcome.mesh_series_path = mesh_series->xmf_path();
+    try {
+      mesh_series->Finish(result.complete);
+    } catch (const Error& e) {
+      // The run log still records how the run ended; a complete run fails for the series.
+      if (result.complete) {
+        log.Finish(false, e.what());
+        throw;
+      }
+      Logger("run").warn("the mesh series could not be marked incomplete: {}", e.what());
+    }
+  }
   if (result.complete && built.simulation && outcome.simulated_frames == 0) {
     Logger("run").warn("the video ended before the registration window was full: nothing was simulated "
                        "(register over fewer cycles with registration.cycles, or give registration.file)");

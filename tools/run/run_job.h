@@ -1,6 +1,7 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -24,12 +25,22 @@ struct RunOptions {
   // Frames written as PNG (composite_<frame>.png: the overlaid frame, in video_layout).
   std::vector<std::int64_t> snapshots;
   bool progress = true;  // progress lines on stderr
+  // The simulated mesh per frame as mesh_series.xmf + mesh_series.h5
+  // (pipeline::MeshSeriesSink). Unset: written when the frames the run reads
+  // times the mesh's nodes are at most kMeshSeriesDefaultNodeFrames.
+  std::optional<bool> mesh_series;
 };
+
+// The default's bound on frames x nodes: 1e6 node-frames is about 80 MB of
+// series (10 doubles per node and frame), e.g. 30 s at 30 fps on a 1100-node
+// mesh; the default phantom's run (105 frames, 1745 nodes) is 0.18e6.
+inline constexpr std::int64_t kMeshSeriesDefaultNodeFrames = 1'000'000;
 
 struct RunOutcome {
   pipeline::RunStatistics statistics;
   std::string log_path, video_path;
   std::string registration_path;  // registration.yaml, when the run registered the scan itself
+  std::string mesh_series_path;   // mesh_series.xmf, when the run wrote the mesh series
   std::int64_t video_frames_dropped = 0;
   std::int64_t simulated_frames = 0;  // frames the FEM stage advanced to (0 without a simulation)
 };
@@ -42,10 +53,11 @@ std::vector<std::string> RunOutputNames();
 std::string DescribeRunGraph(const RunOptions& options);
 
 // `dynaguide run`: streams the scene's recording through its graph, writing
-// the HDF5 run log, the annotated video and (when the run registered the
-// scan itself) registration.yaml into out_dir, which it holds for the run
+// the HDF5 run log, the annotated video, the mesh series (RunOptions::mesh_series)
+// and (when the run registered the scan itself) registration.yaml into out_dir, which it holds for the run
 // (io::OutputFolderClaim: a second process writing there is refused).
-// @throws dg::Error for a bad scene or options before the run, and, after the
+// @throws dg::Error for a bad scene or options before the run (a mesh series
+// asked for in a scene without simulation), and, after the
 // outputs are flushed and marked incomplete, when a stage failed (naming the
 // stage and the frame).
 // @throws pipeline::Interrupted, after the same, when a signal stopped the run.
