@@ -7,6 +7,7 @@
 #include "tools/commands.h"
 #include "tools/eval/eval_subcommands.h"
 #include "tools/eval/protocol.h"
+#include "tools/job_program.h"
 
 namespace dg::tools {
 namespace {
@@ -19,6 +20,7 @@ struct EvalArguments {
 
 void RunProtocolCommand(EvalArguments& args) {
   args.protocol.progress = !args.quiet;
+  if (!args.protocol.emit_jobs.empty()) args.protocol.program = RunningExecutablePath();
   const ProtocolResult result = RunProtocol(args.protocol);
   if (!args.protocol.emit_jobs.empty()) {
     std::printf("dynaguide eval protocol: one run per line in %s; run them (GNU parallel, a Slurm array), then\n"

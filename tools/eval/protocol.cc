@@ -14,6 +14,7 @@
 #include "io/registration_file.h"
 #include "io/scene.h"
 #include "sim/error.h"
+#include "tools/job_program.h"
 #include "tools/json_text.h"
 #include "tools/report/line_plot.h"
 #include "tools/run/default_scene.h"
@@ -183,7 +184,8 @@ ProtocolResult RunProtocol(const ProtocolOptions& options) {
       run.video = false;
       run.progress = options.progress;
       if (jobs.is_open()) {
-        jobs << "dynaguide run " << run.scene << " --out " << run.out_dir << " --no-video"
+        jobs << ShellWord(options.program) << " run " << ShellWord(run.scene) << " --out " << ShellWord(run.out_dir)
+             << " --no-video"
              << (options.threads > 0 ? " --threads " + std::to_string(options.threads) : "") << "\n";
         continue;
       }

@@ -18,6 +18,7 @@
 #include "sim/tled_solver.h"
 #include "tools/bench/bench_json.h"
 #include "tools/eval/runtime_mesh.h"
+#include "tools/job_program.h"
 #include "tools/report/saved_run.h"
 #include "tools/run/default_scene.h"
 #include "tools/run/run_job.h"
@@ -259,7 +260,8 @@ RuntimeResult RunRuntimeSweep(const RuntimeOptions& options) {
     std::ofstream jobs(options.emit_jobs);
     for (const PointPlan& plan : plans) {
       if (plan.refused) continue;
-      jobs << "dynaguide run " << plan.scene << " --out " << options.out_dir << "/runs/" << plan.point.Name()
+      jobs << ShellWord(options.program) << " run " << ShellWord(plan.scene) << " --out "
+           << ShellWord(options.out_dir + "/runs/" + plan.point.Name())
            << " --no-video --features " << plan.point.target_features << " --threads " << plan.point.threads << "\n";
     }
     if (!jobs) throw Error("cannot write the job list", options.emit_jobs, "check the directory exists");

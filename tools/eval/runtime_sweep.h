@@ -65,6 +65,9 @@ struct RuntimeOptions {
   bool quick = false;  // DesignSweep(true) on the tiny preset
   std::string out_dir = "out/runtime";
   std::string emit_jobs;  // write one `dynaguide run` line per point here instead of running
+  // What each job line calls: the dynaguide command gives its own absolute path
+  // (RunningExecutablePath), so the jobs need no PATH.
+  std::string program = "dynaguide";
   double cycles = 3;      // the error window from the simulation's start, as the protocol's
   bool progress = true;
 };

@@ -8,6 +8,7 @@
 #include "tools/eval/eval_subcommands.h"
 #include "tools/eval/stability_report.h"
 #include "tools/eval/stability_study.h"
+#include "tools/job_program.h"
 
 namespace dg::tools {
 namespace {
@@ -44,6 +45,7 @@ void RunJob(const StabilityArguments& args) {
 
 void RunStabilityCommand(StabilityArguments& args) {
   args.study.progress = !args.quiet;
+  if (!args.study.emit_jobs.empty()) args.study.program = RunningExecutablePath();
   if (!args.cell.empty() || !args.bisect.empty()) return RunJob(args);
   const StabilityResult result =
       args.from_logs ? ReadStabilityLogs(args.study.out_dir) : RunStabilityStudy(args.study);

@@ -17,6 +17,7 @@
 #include "io/h5_file.h"
 #include "sim/error.h"
 #include "sim/log.h"
+#include "tools/job_program.h"
 #include "tools/progress.h"
 
 namespace dg::tools {
@@ -183,7 +184,8 @@ std::string BisectionLogPath(const std::string& out_dir, const BisectionCase& bi
 namespace {
 
 std::string JobPrefix(const StabilityOptions& options) {
-  return "dynaguide eval stability --out " + options.out_dir + " --tets " + std::to_string(options.tets) +
+  return ShellWord(options.program) + " eval stability --out " + ShellWord(options.out_dir) + " --tets " +
+         std::to_string(options.tets) +
          (options.threads > 0 ? " --threads " + std::to_string(options.threads) : "") + " --quiet";
 }
 

@@ -1,0 +1,17 @@
+#pragma once
+
+#include <string>
+
+namespace dg::tools {
+
+// The absolute path of the running executable (/proc/self/exe). The job
+// lines of --emit-jobs start with it, so that a job runs this very build
+// whether or not it is on PATH, from any working directory.
+// @throws dg::Error when /proc/self/exe cannot be read.
+std::string RunningExecutablePath();
+
+// `word` as one word of a POSIX shell command line: unchanged when it holds
+// only characters the shell takes literally, else single-quoted.
+std::string ShellWord(const std::string& word);
+
+}  // namespace dg::tools
