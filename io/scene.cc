@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include "io/input_file.h"
+#include "io/surface_mesh_reader.h"
 #include "io/units.h"
 #include "io/yaml_map.h"
 #include "sim/error.h"
@@ -57,9 +58,25 @@ Scene::Preoperative ReadPreoperative(const YamlMap& map, const fs::path& directo
   return preoperative;
 }
 
+// A surface mesh named at `key`: it exists, and its extension names a format read.
+std::string SurfaceMeshFile(const YamlMap& map, const std::string& key, const fs::path& directory,
+                            const std::string& relative) {
+  const std::string path = ExistingFile(map, key, directory, relative);
+  if (!IsSurfaceMeshFile(path)) {
+    throw Error("'" + key + "' names " + path + ", not a surface mesh format read", map.Where(key),
+                "give the mesh as " + SurfaceMeshExtensions() + " (the extension names the format)");
+  }
+  return path;
+}
+
 Scene::Overlays ReadOverlays(const YamlMap& map, const fs::path& directory) {
   Scene::Overlays overlays;
-  if (map.Has("surface_mesh")) overlays.surface_mesh = File(map, "surface_mesh", directory);
+  // Applies to every length in the overlays' files; 3D Slicer and most
+  // segmentation tools write millimetres.
+  overlays.metres_per_unit = MetresPerUnit(map.String("units", "m"), map.Where("units"));
+  if (map.Has("surface_mesh")) {
+    overlays.surface_mesh = SurfaceMeshFile(map, "surface_mesh", directory, map.String("surface_mesh"));
+  }
   if (map.Has("surface_texture")) overlays.surface_texture = File(map, "surface_texture", directory);
   if (map.Has("internal_meshes")) {
     const YAML::Node list = map.Node("internal_meshes");
@@ -67,7 +84,7 @@ Scene::Overlays ReadOverlays(const YamlMap& map, const fs::path& directory) {
       throw Error("'internal_meshes' must be a list of files", map.Where("internal_meshes"), "write [a.obj, b.ply]");
     }
     for (const YAML::Node& item : list) {
-      overlays.internal_meshes.push_back(ExistingFile(map, "internal_meshes", directory, item.as<std::string>()));
+      overlays.internal_meshes.push_back(SurfaceMeshFile(map, "internal_meshes", directory, item.as<std::string>()));
     }
   }
   if (map.Has("internal_points")) {

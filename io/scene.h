@@ -40,6 +40,9 @@ struct Scene {
     std::string surface_mesh, surface_texture;
     std::vector<std::string> internal_meshes;
     std::string internal_points;  // "file.h5:/dataset"
+    // The unit of the meshes' and internal_points' coordinates (`units:`,
+    // as for mesh:; absent: metres), applied when they are read.
+    double metres_per_unit = 1.0;
     // What a run draws, bottom first, of texture, volume and meshes; empty:
     // every overlay the assets allow, in that order.
     std::vector<std::string> order;
@@ -66,6 +69,9 @@ struct Scene {
   // registration stage; otherwise the run registers over its first `cycles`
   // scan periods, following the fiducials from their pixels in the first left
   // frame (`fiducials_uv`, a file of u,v lines; without it, the truth's).
+  // Fiducial files carry no length unit: `fiducials_uv` is in pixels of the
+  // first left frame, and the fiducials' scan positions are scan.h5's
+  // /phases/fiducials_S_m, in metres.
   // Absent: registered by the run when the scene has a simulation.
   struct Registration {
     std::string file;

@@ -7,7 +7,8 @@
 
 #include "io/metaimage.h"
 #include "io/registration_file.h"
-#include "io/surface_mesh.h"
+#include "io/surface_mesh_reader.h"
+#include "pipeline/scene_geometry.h"
 #include "sim/error.h"
 #include "stages/fem_stage.h"
 #include "stages/overlay/surface_overlay.h"
@@ -32,16 +33,18 @@ OverlayDraw DrawWith(std::shared_ptr<Overlay> overlay) {
   return [overlay](const Eigen::Matrix3Xd& nodes_S, std::int64_t frame) { return overlay->Process(nodes_S, frame); };
 }
 
-OverlayFactory MeshesFactory(const io::Scene::Overlays& assets, std::shared_ptr<const SimulationSetup> setup) {
-  const std::vector<overlay::OverlaySurface> surfaces = InternalMeshSurfaces(assets);
+OverlayFactory MeshesFactory(const io::Scene& scene, std::shared_ptr<const SimulationSetup> setup) {
+  const std::vector<overlay::OverlaySurface> surfaces = InternalMeshSurfaces(*scene.overlays);
+  for (const overlay::OverlaySurface& surface : surfaces) CheckOverlayMeshSize(scene, surface.name, surface.mesh, setup->mesh);
   return [=](const overlay::LensView& view) {
     return DrawWith(
         std::make_shared<overlay::SurfaceOverlay>(overlay::SurfaceOverlay::Options{}, setup->mesh, surfaces, view));
   };
 }
 
-OverlayFactory TextureFactory(const io::Scene::Overlays& assets, std::shared_ptr<const SimulationSetup> setup) {
-  const overlay::OverlaySurface surface = TexturedSurface(assets);
+OverlayFactory TextureFactory(const io::Scene& scene, std::shared_ptr<const SimulationSetup> setup) {
+  const overlay::OverlaySurface surface = TexturedSurface(*scene.overlays);
+  CheckOverlayMeshSize(scene, surface.name, surface.mesh, setup->mesh);
   overlay::SurfaceOverlay::Options options;
   options.lit = false;  // landmarks and annotations in their own colours
   return [=](const overlay::LensView& view) {
@@ -66,7 +69,7 @@ std::vector<overlay::OverlaySurface> InternalMeshSurfaces(const io::Scene::Overl
   std::vector<overlay::OverlaySurface> surfaces;
   for (const std::string& file : assets.internal_meshes) {
     overlay::OverlaySurface surface;
-    surface.mesh = io::ReadObj(file);
+    surface.mesh = io::ReadSurfaceMesh(file, {assets.metres_per_unit, ""});
     surface.color_bgr = kStructureColors[surfaces.size() % std::size(kStructureColors)];
     surface.name = file;
     surfaces.push_back(std::move(surface));
@@ -76,7 +79,7 @@ std::vector<overlay::OverlaySurface> InternalMeshSurfaces(const io::Scene::Overl
 
 overlay::OverlaySurface TexturedSurface(const io::Scene::Overlays& assets) {
   overlay::OverlaySurface surface;
-  surface.mesh = io::ReadObj(assets.surface_mesh);
+  surface.mesh = io::ReadSurfaceMesh(assets.surface_mesh, {assets.metres_per_unit, ""});
   surface.texture = cv::imread(assets.surface_texture, cv::IMREAD_COLOR);
   if (surface.texture.empty()) {
     throw Error("cannot read the surface texture", assets.surface_texture, "give a PNG or JPEG image");
@@ -151,13 +154,13 @@ OverlayPlan PlanOverlays(const io::Scene& scene, std::shared_ptr<const Simulatio
     }
     if (name == "texture") {
       plan.compositor.layers.push_back({name, overlay::BlendMode::kAlpha});
-      plan.factories.push_back(TextureFactory(assets, setup));
+      plan.factories.push_back(TextureFactory(scene, setup));
     } else if (name == "volume") {
       plan.compositor.layers.push_back({name, anatomy_blend});
       plan.factories.push_back(VolumeFactory(scene.preoperative->ct_volumes.front(), setup));
     } else {
       plan.compositor.layers.push_back({name, anatomy_blend});
-      plan.factories.push_back(MeshesFactory(assets, setup));
+      plan.factories.push_back(MeshesFactory(scene, setup));
     }
   }
   return plan;

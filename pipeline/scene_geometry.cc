@@ -19,6 +19,10 @@ namespace {
 constexpr double kLargestOrgan_m = 0.5, kSmallestOrgan_m = 1e-3;
 // Fiducials are glued to the organ's surface: within a few millimetres of its box.
 constexpr double kFiducialMargin_m = 0.01;
+// An overlay mesh against the simulated mesh: a structure inside the organ
+// spans more than a hundredth of it, the surface or a neighbour less than ten
+// times; a unit slip is a factor of 1000 either way.
+constexpr double kSmallestOverlayToMesh = 1e-2, kLargestOverlayToMesh = 10;
 // The mesh is segmented from the CT: its box lies inside the CT's grid, and a
 // CT spans at most a body's width more than the organ.
 constexpr double kGridMargin_m = 0.01, kLargestGridToMesh = 50;
@@ -93,6 +97,26 @@ void CheckSceneGeometry(const io::Scene& scene, const sim::TetMesh& mesh) {
                     "): the scan and the mesh are not in one frame or one unit",
                 scene.preoperative->motion + " (through " + scene.path + ")",
                 "give the mesh and scan.h5 of one preoperative CT, both in metres (mesh: {units: ...} for the mesh)");
+  }
+}
+
+void CheckOverlayMeshSize(const io::Scene& scene, const std::string& file, const io::SurfaceMesh& overlay_mesh,
+                          const sim::TetMesh& mesh) {
+  const auto span_m = [](const Eigen::Matrix3Xd& points_m) {
+    return points_m.cols() == 0 ? 0.0 : (points_m.rowwise().maxCoeff() - points_m.rowwise().minCoeff()).maxCoeff();
+  };
+  const double overlay_m = span_m(overlay_mesh.vertices_m), mesh_m = span_m(mesh.X_m);
+  const double stated = scene.overlays ? scene.overlays->metres_per_unit : 1.0;
+  const std::string sizes = "the overlay mesh spans " + Metres(overlay_m) + ", the simulated mesh " + Metres(mesh_m);
+  const std::string where = file + " (through " + scene.path + ")";
+  if (overlay_m > kLargestOverlayToMesh * mesh_m) {
+    throw Error(sizes + ": the overlay mesh is probably in millimetres" +
+                    (stated == 1.0 ? " (overlays: has no units, so metres are read)" : ""),
+                where, "state the overlay meshes' unit in the scene: overlays: {units: mm}");
+  }
+  if (overlay_m < kSmallestOverlayToMesh * mesh_m) {
+    throw Error(sizes + ": the overlay mesh's unit is probably stated wrong (a file in metres read as millimetres?)",
+                where, "state the overlay meshes' unit in the scene: overlays: {units: m} (or mm, cm)");
   }
 }
 

@@ -7,6 +7,7 @@
 
 #include "io/calibration.h"
 #include "io/scene.h"
+#include "io/surface_mesh.h"
 #include "sim/tet_mesh.h"
 
 namespace dg::pipeline {
@@ -18,6 +19,17 @@ namespace dg::pipeline {
 // milliseconds and report errors of a frozen surface, yet finish.
 // @throws dg::Error naming the scene, the sizes found and the likely unit.
 void CheckSceneGeometry(const io::Scene& scene, const sim::TetMesh& mesh);
+
+// Checks that an overlay mesh (`file`, read in the scene's overlays.units) is
+// drawn at a plausible size on the simulated mesh: the span of its box lies
+// between a hundredth (a vessel or a lesion inside the organ) and ten times
+// (the surface, a neighbouring structure) the simulated mesh's. A mesh in
+// millimetres read as metres is 1000 times larger, one in metres read as
+// millimetres 1000 times smaller; either would be drawn off the screen or
+// as a dot, with the run finishing.
+// @throws dg::Error naming the file, both spans and the `units` fix.
+void CheckOverlayMeshSize(const io::Scene& scene, const std::string& file, const io::SurfaceMesh& overlay_mesh,
+                          const sim::TetMesh& mesh);
 
 // The tissue's depth from the camera, once known, against what stereo
 // matching searches and what the calibration can measure: a depth range in

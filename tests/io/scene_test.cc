@@ -95,6 +95,31 @@ TEST_CASE("scene: bad scenes give named errors", "[io][unit]") {
   REQUIRE_THROWS_WITH(ReadScene((dir / "scene.yaml").string()), Catch::Contains("one integer field"));
 }
 
+// overlays: units covers its meshes and points (absent: metres); an unknown
+// unit and a mesh file of no format read are refused at load, naming the key.
+TEST_CASE("scene: overlay units and mesh formats", "[io][unit]") {
+  fs::path dir = MakeSceneDir("dg_scene_test_overlays", kScene);
+  REQUIRE(ReadScene((dir / "scene.yaml").string()).overlays->metres_per_unit == 1.0);
+
+  std::string text = kScene;
+  text.replace(text.find("overlays:\n"), 10, "overlays:\n  units: mm\n");
+  dir = MakeSceneDir("dg_scene_test_overlays", text);
+  REQUIRE(ReadScene((dir / "scene.yaml").string()).overlays->metres_per_unit == 1e-3);
+
+  text = kScene;
+  text.replace(text.find("overlays:\n"), 10, "overlays:\n  units: inch\n");
+  dir = MakeSceneDir("dg_scene_test_overlays", text);
+  REQUIRE_THROWS_WITH(ReadScene((dir / "scene.yaml").string()),
+                      Catch::Contains("unknown length unit 'inch'") && Catch::Contains("overlays.units"));
+
+  text = kScene;
+  text.replace(text.find("assets/a.obj"), 12, "assets/a.off");
+  dir = MakeSceneDir("dg_scene_test_overlays", text);
+  std::ofstream(dir / "assets/a.off") << "";
+  REQUIRE_THROWS_WITH(ReadScene((dir / "scene.yaml").string()),
+                      Catch::Contains("not a surface mesh format read") && Catch::Contains("overlays.internal_meshes") &&
+                          Catch::Contains(".obj, .ply, .stl, .vtk or .vtp"));
+}
 
 // The recording's layout: side by side needs no right file; image sequences
 // are patterns, not files; a misspelt layout is named with the choices.
