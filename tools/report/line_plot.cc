@@ -39,7 +39,8 @@ cv::Scalar SeriesColour(size_t index) {
 
 }  // namespace
 
-void WriteLinePlot(const std::vector<PlotSeries>& series, const PlotOptions& options, const std::string& png_path) {
+PlotClipping WriteLinePlot(const std::vector<PlotSeries>& series, const PlotOptions& options,
+                           const std::string& png_path) {
   const cv::Size size = options.size;
   const int left = 80, right = 220, top = 40, bottom = 60;
   cv::Mat canvas(size, CV_8UC3, cv::Scalar(255, 255, 255));
@@ -60,6 +61,9 @@ void WriteLinePlot(const std::vector<PlotSeries>& series, const PlotOptions& opt
   }
   const double top_y = all_y.empty() ? 1.0 : pipeline::Quantile(all_y, options.y_quantile);
   const double y_max = top_y > 0 ? 1.1 * top_y : 1.0;
+  PlotClipping clipping;
+  clipping.y_axis_max = y_max;
+  for (double y : all_y) clipping.largest_y = std::max(clipping.largest_y, y);
   const double plot_w = size.width - left - right, plot_h = size.height - top - bottom;
   auto at = [&](double x, double y) {
     return cv::Point(left + static_cast<int>((x - first) / (last - first) * plot_w),
@@ -92,13 +96,27 @@ void WriteLinePlot(const std::vector<PlotSeries>& series, const PlotOptions& opt
     std::vector<cv::Point> polyline;
     for (const cv::Point2d& p : series[k].points) polyline.push_back(at(p.x, p.y));
     cv::polylines(canvas, polyline, false, SeriesColour(k), 1, cv::LINE_AA);
+    for (const cv::Point2d& p : series[k].points) {
+      if (p.y <= y_max) continue;
+      const cv::Point apex = at(p.x, y_max);
+      const std::vector<cv::Point> triangle = {apex, apex + cv::Point(-5, 9), apex + cv::Point(5, 9)};
+      cv::fillConvexPoly(canvas, triangle, SeriesColour(k), cv::LINE_AA);
+      ++clipping.points_above;
+    }
     const cv::Point key(size.width - right + 20, top + 20 + 22 * legend_row++);
     cv::line(canvas, key, key + cv::Point(25, 0), SeriesColour(k), 3);
     cv::putText(canvas, series[k].name, key + cv::Point(32, 5), cv::FONT_HERSHEY_SIMPLEX, 0.5, ink, 1, cv::LINE_AA);
   }
+  if (clipping.points_above > 0) {
+    const std::string note = std::to_string(clipping.points_above) + " point" + (clipping.points_above > 1 ? "s" : "") +
+                             " above the axis (triangles), largest " + Number(clipping.largest_y);
+    cv::putText(canvas, note, {left + static_cast<int>(plot_w) - 9 * static_cast<int>(note.size()), top - 15},
+                cv::FONT_HERSHEY_SIMPLEX, 0.5, ink, 1, cv::LINE_AA);
+  }
   if (!cv::imwrite(png_path, canvas)) {
     throw Error("cannot write the plot", png_path, "check the directory exists and is writable");
   }
+  return clipping;
 }
 
 }  // namespace dg::tools

@@ -47,8 +47,12 @@ void RunReportCommand(const ReportArguments& args) {
   const std::string plot = args.plot_path.empty()
                                ? std::filesystem::path(args.log_path).replace_extension("").string() + "_timings.png"
                                : args.plot_path;
-  WriteTimingPlot(run, plot);
+  const PlotClipping clipping = WriteTimingPlot(run, plot);
   std::printf("timing plot: %s\n", plot.c_str());
+  if (clipping.points_above > 0) {
+    std::printf("  its y axis ends at %.3g ms: %d stage times above it are marked on the top edge (largest %.3g ms)\n",
+                clipping.y_axis_max, clipping.points_above, clipping.largest_y);
+  }
 }
 
 }  // namespace

@@ -7,7 +7,7 @@
 
 namespace dg::tools {
 
-void WriteTimingPlot(const SavedRun& run, const std::string& png_path) {
+PlotClipping WriteTimingPlot(const SavedRun& run, const std::string& png_path) {
   std::map<int, PlotSeries> series;  // by stage index: the legend in stage order
   for (const pipeline::StageTiming& t : run.timings) {
     PlotSeries& line = series[t.stage];
@@ -25,7 +25,7 @@ void WriteTimingPlot(const SavedRun& run, const std::string& png_path) {
   options.x_label = "frame";
   options.y_label = "ms per frame and stage";
   options.y_quantile = 0.99;  // one slow outlier does not flatten every line
-  WriteLinePlot(lines, options, png_path);
+  return WriteLinePlot(lines, options, png_path);
 }
 
 }  // namespace dg::tools
