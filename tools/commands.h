@@ -12,6 +12,7 @@ void AddSimCommand(CLI::App& app);
 void AddBenchCommand(CLI::App& app);
 void AddCalibrateCommand(CLI::App& app);
 void AddEvalCommand(CLI::App& app);
+void AddExportCommand(CLI::App& app);
 void AddMeshCommand(CLI::App& app);
 void AddOverlayCommand(CLI::App& app);
 void AddPhantomCommand(CLI::App& app);

@@ -15,6 +15,7 @@ int main(int argc, char** argv) {
   dg::tools::AddBenchCommand(app);
   dg::tools::AddCalibrateCommand(app);
   dg::tools::AddEvalCommand(app);
+  dg::tools::AddExportCommand(app);
   dg::tools::AddMeshCommand(app);
   dg::tools::AddOverlayCommand(app);
   dg::tools::AddPhantomCommand(app);
