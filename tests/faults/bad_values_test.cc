@@ -16,6 +16,9 @@
 #include "io/gmsh_reader.h"
 #include "io/registration_file.h"
 #include "io/scene.h"
+#include "io/surface_mesh.h"
+#include "io/surface_mesh_reader.h"
+#include "pipeline/overlay_stages.h"
 #include "sim/error.h"
 #include "sim/stability.h"
 #include "stages/image_sequence.h"
@@ -134,6 +137,48 @@ TEST_CASE("bad values: a mesh in millimetres read as metres is refused at scene 
                                                     Contains("mesh_in_mm.msh") && Contains("units: mm"));
   REQUIRE(fs::is_empty(options.out_dir));
   fs::remove_all(options.out_dir);
+}
+
+// The overlay meshes written in millimetres, as 3D Slicer writes them (the
+// skin as OBJ with its texture coordinates, the chambers as binary PLY):
+// read as metres they are refused at scene load, naming `units: mm`; with
+// `overlays: {units: mm}` they load to the original metres and the run draws them.
+TEST_CASE("bad values: overlay meshes in millimetres are refused without units and drawn with units: mm",
+          "[faults][integration]") {
+  const std::string dir = dg::testing::TinyPhantomDir();
+  const io::Scene scene = io::ReadScene(dir + "/scene.yaml");
+  const io::SurfaceFileOptions millimetres{1e-3, ""};
+  io::WriteObj(dir + "/assets/skin_mm.obj", io::ReadSurfaceMesh(scene.overlays->surface_mesh), millimetres);
+  std::string text = scene.text;
+  for (const char* name : {"skin.obj", "chamber_0.obj", "chamber_1.obj"}) {
+    const std::string mm_name = std::string(name) == "skin.obj" ? "skin_mm.obj"
+                                                                 : std::string(name).substr(0, 9) + "_mm.ply";
+    if (mm_name.ends_with(".ply")) {
+      io::WritePly(dir + "/assets/" + mm_name, io::ReadSurfaceMesh(dir + "/assets/" + name), millimetres);
+    }
+    const size_t at = text.find(std::string("assets/") + name);
+    REQUIRE(at != std::string::npos);
+    text.replace(at + 7, std::string(name).size(), mm_name);
+  }
+  const tools::RunOptions as_metres = VariantRun("overlays_in_mm", text);
+  const std::string error = RunError(as_metres);
+  CHECK_THAT(error, Contains("_mm.") && Contains("units: mm"));
+
+  const size_t overlays = text.find("overlays:\n");
+  REQUIRE(overlays != std::string::npos);
+  text.insert(overlays + 10, "  units: mm\n");
+  const tools::RunOptions with_units = VariantRun("overlays_with_units", text);
+  const io::Scene loaded = io::ReadScene(with_units.scene);
+  const std::vector<stages::overlay::OverlaySurface> chambers = pipeline::InternalMeshSurfaces(*loaded.overlays);
+  REQUIRE(chambers.size() == 2);
+  const io::SurfaceMesh original = io::ReadSurfaceMesh(dir + "/assets/chamber_0.obj");
+  CHECK((chambers[0].mesh.vertices_m - original.vertices_m).cwiseAbs().maxCoeff() < 1e-15);
+  CHECK((pipeline::TexturedSurface(*loaded.overlays).mesh.uvs.size() > 0));
+  tools::RunScene(with_units);
+  const hid_t file = H5Fopen((with_units.out_dir + "/run.h5").c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+  REQUIRE(file >= 0);
+  CHECK(testing::h5_plain::IntAttribute(file, "/overlay_timings", "meshes_drawn") >= 1);
+  H5Fclose(file);
 }
 
 // A time step above the mesh's stable limit is refused when the scene loads,
