@@ -29,6 +29,7 @@
 #include <vtkPoints.h>
 #include <vtkPolyData.h>
 #include <vtkPolyDataReader.h>
+#include <vtkPolyDataWriter.h>
 #include <vtkStringArray.h>
 #include <vtkUnstructuredGrid.h>
 #include <vtkXMLUnstructuredGridReader.h>
@@ -252,6 +253,50 @@ TEST_CASE("export slicer: the tiny phantom's models, registration and CT read ba
     CHECK(exported.files.size() == 8);  // 3 overlays, mesh.vtu, mesh_surface.vtk, .tfm, .mhd, README
     CHECK_THAT(readme.str(), Contains("T_S_C") && Contains("to parent") && Contains("SPACE=LPS"));
   }
+}
+
+// A user's mesh in millimetres (written by VTK's own writer, the scene saying
+// overlays: {units: mm}) leaves the export with the file's own coordinates.
+TEST_CASE("export slicer: an overlay mesh in millimetres keeps its coordinates", "[tools][integration]") {
+  const TemporaryFolder folder;
+  const std::string phantom = dg::testing::TinyPhantomDir();
+  const io::SurfaceMesh chamber = io::ReadObj(phantom + "/assets/chamber_0.obj");
+  const Eigen::Matrix3Xd chamber_mm = chamber.vertices_m * 1000.0;
+  vtkNew<vtkPoints> points;
+  points->SetDataTypeToDouble();
+  for (Eigen::Index i = 0; i < chamber_mm.cols(); ++i) {
+    points->InsertNextPoint(chamber_mm(0, i), chamber_mm(1, i), chamber_mm(2, i));
+  }
+  vtkNew<vtkCellArray> triangles;
+  for (Eigen::Index t = 0; t < chamber.triangles.cols(); ++t) {
+    const vtkIdType corners[3] = {chamber.triangles(0, t), chamber.triangles(1, t), chamber.triangles(2, t)};
+    triangles->InsertNextCell(3, corners);
+  }
+  vtkNew<vtkPolyData> surface;
+  surface->SetPoints(points);
+  surface->SetPolys(triangles);
+  vtkNew<vtkPolyDataWriter> writer;
+  writer->SetFileName((phantom + "/assets/chamber_0_mm.vtk").c_str());
+  writer->SetInputData(surface);
+  writer->SetFileTypeToBinary();
+  REQUIRE(writer->Write() == 1);
+
+  YAML::Node root = YAML::LoadFile(TinyScene());
+  root.remove("overlays");
+  root["overlays"]["units"] = "mm";
+  root["overlays"]["internal_meshes"].push_back("assets/chamber_0_mm.vtk");
+  SlicerExportOptions options;
+  options.scene = phantom + "/export-mm.yaml";
+  std::ofstream(options.scene) << root;
+  options.out_dir = folder.dir + "/slicer";
+  options.registration = TruthRegistration(folder.dir);
+  const SlicerExport exported = ExportForSlicer(options);
+  REQUIRE(exported.models.front() == "internal_1_chamber_0_mm.vtk");
+
+  const vtkSmartPointer<vtkPolyData> model = ReadLegacyModel(options.out_dir + "/internal_1_chamber_0_mm.vtk");
+  // Millimetres to metres and back: two roundings (measured 2.1e-16 relative).
+  CHECK(LargestDeparture(model->GetPoints(), chamber_mm) <= 5e-16);
+  RequireSameTriangles(model, chamber.triangles);
 }
 
 // What the export cannot use is refused, naming the fix, before the folder is created.

@@ -11,6 +11,7 @@
 #include "io/registration_file.h"
 #include "io/scene.h"
 #include "io/surface_mesh.h"
+#include "io/surface_mesh_reader.h"
 #include "pipeline/scene_geometry.h"
 #include "sim/error.h"
 #include "sim/tet_mesh.h"
@@ -31,15 +32,6 @@ constexpr const char* kCtName = "ct_phase_00.mhd";
 const std::vector<std::string> kOutputNames = {"surface_*.vtk",    "internal_*.vtk", "mesh.vtu",
                                                "mesh_surface.vtk", kTransformName,   kCtName,
                                                "ct_phase_00.raw",  "README.txt"};
-
-// The scene's overlay meshes, as the run reads them: OBJ, in metres.
-io::SurfaceMesh ReadOverlayMesh(const std::string& path, const std::string& scene_path) {
-  if (fs::path(path).extension() != ".obj") {
-    throw Error("an overlay mesh is not an OBJ file", path + " (through " + scene_path + ")",
-                "convert it to OBJ in metres (e.g. with meshio, or Slicer's Models module > Export)");
-  }
-  return io::ReadObj(path);
-}
 
 // The registration file the export uses: --registration, else the scene's.
 std::string RegistrationFile(const SlicerExportOptions& options, const io::Scene& scene) {
@@ -86,14 +78,20 @@ SlicerExport ExportForSlicer(const SlicerExportOptions& options) {
     io::SurfaceMesh surface;
   };
   std::vector<Model> models;
+  // As the run reads and checks them: any format io::ReadSurfaceMesh takes, in overlays: units.
+  const auto read_overlay = [&](const std::string& file) {
+    io::SurfaceMesh surface = io::ReadSurfaceMesh(file, {scene.overlays->metres_per_unit, ""});
+    pipeline::CheckOverlayMeshSize(scene, file, surface, mesh);
+    return surface;
+  };
   if (!scene.overlays->surface_mesh.empty()) {
     const std::string& file = scene.overlays->surface_mesh;
-    models.push_back({"surface_" + Stem(file) + ".vtk", "surface mesh " + file, ReadOverlayMesh(file, scene.path)});
+    models.push_back({"surface_" + Stem(file) + ".vtk", "surface mesh " + file, read_overlay(file)});
   }
   for (size_t k = 0; k < scene.overlays->internal_meshes.size(); ++k) {
     const std::string& file = scene.overlays->internal_meshes[k];
-    models.push_back({"internal_" + std::to_string(k + 1) + "_" + Stem(file) + ".vtk", "internal mesh " + file,
-                      ReadOverlayMesh(file, scene.path)});
+    models.push_back(
+        {"internal_" + std::to_string(k + 1) + "_" + Stem(file) + ".vtk", "internal mesh " + file, read_overlay(file)});
   }
   const std::string ct =
       scene.preoperative && !scene.preoperative->ct_volumes.empty() ? scene.preoperative->ct_volumes.front() : "";

@@ -51,7 +51,7 @@ void WriteVtkPolyData(const std::string& path, const Eigen::Matrix3Xd& points_mm
   vtkNew<vtkPolyDataWriter> writer;
   writer->SetFileName(path.c_str());
   writer->SetInputData(surface);
-  // 5.1 (VTK 9's default) is unread by Slicer before 5.0 and by many other tools.
+  // VTK 9 writes 5.1 by default, which readers built on VTK 8 (Slicer 4.x among them) and many other tools refuse.
   writer->SetFileVersion(vtkDataWriter::VTK_LEGACY_READER_VERSION_4_2);
   writer->SetFileTypeToBinary();
   writer->SetHeader((title + ", millimetres. " + kSpaceTag + "=" + kSpace).c_str());
