@@ -4,24 +4,25 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
+#include <optional>
 #include <tuple>
+#include <utility>
+#include <vector>
 
 #include <Eigen/Core>
 #include <Eigen/LU>
 #include <opencv2/core.hpp>
 #include <opencv2/core/eigen.hpp>
 
-#include "io/input_file.h"
+#include "io/calibration_formats.h"
+#include "io/calibration_keys.h"
+#include "io/units.h"
 #include "sim/error.h"
 
 namespace dg::io {
 namespace {
-
-const std::string kRecalibrate =
-    "correct the key, or write the file again with dynaguide calibrate or OpenCV's stereoCalibrate";
-
-bool IsSupportedDistortionCount(int count) { return count == 4 || count == 5 || count == 8; }
 
 Eigen::Matrix3d CrossMatrix(const Eigen::Vector3d& v) {
   Eigen::Matrix3d m;
@@ -29,112 +30,6 @@ Eigen::Matrix3d CrossMatrix(const Eigen::Vector3d& v) {
       v.z(), 0, -v.x(),   //
       -v.y(), v.x(), 0;
   return m;
-}
-
-// The keys of one calibration file, each read with a check of its shape so
-// that an error names the key.
-class CalibrationFile {
- public:
-  explicit CalibrationFile(const std::string& path) : path_(path) {
-    // Checked first: OpenCV would also log its own error for a missing file.
-    RequireRegularFile(path, "calibration file", "check the path");
-    try {
-      storage_.open(path, cv::FileStorage::READ);
-    } catch (const cv::Exception& error) {
-      throw Error("cannot parse calibration file: " + error.err, path,
-                  "check that it is OpenCV FileStorage YAML or XML");
-    }
-    if (!storage_.isOpened()) {
-      throw Error("cannot open calibration file", path, "check that it is readable");
-    }
-  }
-
-  bool Has(const std::string& key) const { return !storage_[key].empty(); }
-
-  // A rows x cols matrix (a vector in either orientation when rows or cols is 1).
-  Eigen::MatrixXd Matrix(const std::string& key, int rows, int cols) const {
-    const cv::Mat mat = Mat(key);
-    const bool vector_ok = (rows == 1 || cols == 1) &&
-                           mat.total() == static_cast<size_t>(rows * cols) &&
-                           (mat.rows == 1 || mat.cols == 1);
-    if (!vector_ok && (mat.rows != rows || mat.cols != cols)) {
-      Fail(key, "expected a " + std::to_string(rows) + "x" + std::to_string(cols) +
-                    " matrix, found " + std::to_string(mat.rows) + "x" + std::to_string(mat.cols));
-    }
-    Eigen::MatrixXd matrix;
-    cv::cv2eigen(mat.reshape(1, rows), matrix);
-    return matrix;
-  }
-
-  // Distortion coefficients as a row or column of 4, 5 or 8.
-  void Distortion(const std::string& key, CameraCalibration* camera) const {
-    const cv::Mat mat = Mat(key);
-    const int count = static_cast<int>(mat.total());
-    if ((mat.rows != 1 && mat.cols != 1) || !IsSupportedDistortionCount(count)) {
-      Fail(key,
-           "expected 4, 5 or 8 distortion coefficients in a row, found a " +
-               std::to_string(mat.rows) + "x" + std::to_string(mat.cols) + " matrix",
-           "calibrate without the thin-prism and tilt terms (no CALIB_THIN_PRISM_MODEL or "
-           "CALIB_TILTED_MODEL)");
-    }
-    camera->num_distortion = count;
-    camera->distortion.fill(0.0);
-    for (int i = 0; i < count; ++i) camera->distortion[i] = mat.at<double>(i);
-  }
-
-  // image_size as [w, h], as cv::FileStorage writes a cv::Size.
-  std::pair<int, int> ImageSize(const std::string& key) const {
-    const cv::FileNode node = Node(key);
-    if (!node.isSeq() || node.size() != 2 || !node[0].isInt() || !node[1].isInt() ||
-        static_cast<int>(node[0]) <= 0 || static_cast<int>(node[1]) <= 0) {
-      Fail(key, "expected [width, height] in pixels", kRecalibrate);
-    }
-    return {static_cast<int>(node[0]), static_cast<int>(node[1])};
-  }
-
-  [[noreturn]] void Fail(const std::string& key, const std::string& problem,
-                         const std::string& fix = kRecalibrate) const {
-    throw Error(key + ": " + problem, path_ + ": key " + key, fix);
-  }
-
- private:
-  cv::FileNode Node(const std::string& key) const {
-    const cv::FileNode node = storage_[key];
-    if (node.empty()) Fail(key, "missing", "add " + key + ", or " + kRecalibrate);
-    return node;
-  }
-
-  cv::Mat Mat(const std::string& key) const {
-    cv::Mat mat;
-    try {
-      Node(key) >> mat;
-    } catch (const cv::Exception& error) {
-      Fail(key, "not a matrix: " + error.err);
-    }
-    if (mat.empty() || mat.channels() != 1) Fail(key, "expected an opencv-matrix");
-    mat.convertTo(mat, CV_64F);
-    return mat;
-  }
-
-  std::string path_;
-  cv::FileStorage storage_;
-};
-
-CameraCalibration ReadCamera(const CalibrationFile& file, const std::string& index,
-                             std::pair<int, int> image_size) {
-  CameraCalibration camera;
-  camera.K = file.Matrix("K" + index, 3, 3);
-  file.Distortion("D" + index, &camera);
-  std::tie(camera.width, camera.height) = image_size;
-  return camera;
-}
-
-void CheckRotation(const CalibrationFile& file, const Eigen::Matrix3d& R) {
-  const double orthogonality = (R.transpose() * R - Eigen::Matrix3d::Identity()).norm();
-  if (orthogonality > 1e-6 || R.determinant() < 0) {
-    file.Fail("R", "not a rotation (|R^T R - I| = " + std::to_string(orthogonality) +
-                       ", det = " + std::to_string(R.determinant()) + ")");
-  }
 }
 
 void WriteMatrix(cv::FileStorage& storage, const std::string& key, const Eigen::MatrixXd& matrix) {
@@ -198,53 +93,170 @@ void WriteStereoCalibration(const std::string& path, const StereoCalibration& ca
 
 namespace {
 
-// The stereo baseline |T| in metres. A stereo endoscope's is 3 to 10 mm and
-// a bench rig's a few centimetres; OpenCV gives T in the unit of the
-// calibration target's square size, so a target measured in millimetres
-// gives a baseline of "5 metres", which every depth in the run would follow.
-void CheckBaseline(const CalibrationFile& file, const Eigen::MatrixXd& T) {
-  constexpr double kLargestBaseline_m = 0.25;
-  const double baseline = T.norm();
-  if (!(baseline > 0) || !std::isfinite(baseline)) {
-    file.Fail("T", "is zero or not finite: the two cameras would be at one place",
+// A stereo endoscope's baseline is 3 to 10 mm and a bench rig's a few
+// centimetres. OpenCV gives T in the unit of the calibration target's square
+// size, which no file records: a target measured in millimetres gives a
+// baseline of "5 metres", one measured in squares (the stereo_calib sample's
+// default) a few units, and every depth in the run would follow.
+constexpr double kSmallestBaseline_m = 0.5e-3, kLargestBaseline_m = 0.25;
+
+const std::string kStateUnit =
+    "state T's unit: calibration_units: mm in the scene (dynaguide track: --calib-units mm), or the square's side "
+    "in metres for T in chessboard squares (calibration_units: 0.0025 for squares of 2.5 mm)";
+
+void CheckBaseline(const CalibrationKeys& file, const std::string& key, const Eigen::Vector3d& T_m,
+                   double metres_per_unit) {
+  const double baseline_m = T_m.norm();
+  if (!(baseline_m > 0) || !std::isfinite(baseline_m)) {
+    file.Fail(key, "is zero or not finite: the two cameras would be at one place",
               "give the right camera's translation from the stereo calibration (cv::stereoCalibrate's T)");
   }
-  if (baseline > kLargestBaseline_m) {
-    char what[160];
-    std::snprintf(what, sizeof what,
-                  "gives a baseline of %.4g m, not a stereo endoscope's (3-10 mm): T is probably in millimetres",
-                  baseline);
-    file.Fail("T", what,
-              "give T in metres (divide it by 1000), or calibrate again with the target's square size in metres");
+  char units[64];
+  std::snprintf(units, sizeof units, "%g m per unit", metres_per_unit);
+  const bool in_metres = metres_per_unit == 1.0;
+  char what[320];
+  if (baseline_m > kLargestBaseline_m) {
+    std::snprintf(what, sizeof what, "gives a baseline of %.4g m, not a stereo endoscope's (3-10 mm): T is probably in %s",
+                  baseline_m,
+                  in_metres ? "millimetres (or in chessboard squares, as OpenCV's stereo_calib sample gives it)"
+                            : "a smaller unit than calibration_units says");
+    file.Fail(key, what,
+              in_metres ? "give T in metres (divide it by 1000), or " + kStateUnit
+                        : "check calibration_units (" + std::string(units) +
+                              ") against the unit of the square size the calibration was given");
   }
+  if (baseline_m < kSmallestBaseline_m) {
+    std::snprintf(what, sizeof what,
+                  "gives a baseline of %.3g mm, less than any stereo endoscope's (3-10 mm): T is probably in %s",
+                  baseline_m * 1e3,
+                  in_metres ? "a larger unit than metres" : "metres, while calibration_units scales it");
+    file.Fail(key, what,
+              in_metres ? "check T against the square size the calibration was given"
+                        : "check calibration_units (" + std::string(units) + "); leave it out for T in metres");
+  }
+}
+
+// T, and the translations in the rectification (the last columns of P1 and
+// P2, and Q's last row, which divides by the baseline), into metres.
+void ScaleTranslations(double metres_per_unit, StereoCalibration* calibration) {
+  calibration->T_m *= metres_per_unit;
+  if (auto& rectification = calibration->rectification) {
+    rectification->P1.col(3) *= metres_per_unit;
+    rectification->P2.col(3) *= metres_per_unit;
+    rectification->Q.row(3) /= metres_per_unit;
+  }
+}
+
+std::string Recognised(const std::vector<CalibrationKeys>& files, const std::vector<CalibrationLayout>& layouts) {
+  std::string text;
+  for (size_t i = 0; i < files.size(); ++i) {
+    text += (i ? ", " : "") + files[i].path() + " as " + LayoutName(layouts[i]);
+  }
+  return text;
 }
 
 }  // namespace
 
-StereoCalibration ReadStereoCalibration(const std::string& path) {
-  const CalibrationFile file(path);
-  StereoCalibration calibration;
-  const std::pair<int, int> image_size = file.ImageSize("image_size");
-  calibration.left = ReadCamera(file, "1", image_size);
-  calibration.right = ReadCamera(file, "2", image_size);
-  calibration.R = file.Matrix("R", 3, 3);
-  CheckRotation(file, calibration.R);
-  calibration.T_m = file.Matrix("T", 3, 1);
-  CheckBaseline(file, calibration.T_m);
-  // E and F follow from the rest and are recomputed, not read.
-  const std::array<const char*, 5> rectification_keys = {"R1", "R2", "P1", "P2", "Q"};
-  const bool any = std::any_of(rectification_keys.begin(), rectification_keys.end(),
-                               [&](const char* key) { return file.Has(key); });
-  if (any) {
-    for (const char* key : rectification_keys) {
-      if (!file.Has(key)) {
-        file.Fail(key, "missing while other rectification keys are given",
-                  "give all of R1 R2 P1 P2 Q (as stereoRectify returns them), or none");
-      }
+std::string CalibrationSource::Describe() const {
+  std::string text;
+  for (const std::string& file : files) text += (text.empty() ? "" : " + ") + file;
+  return text.empty() ? "no calibration file" : text;
+}
+
+double CalibrationMetresPerUnit(const std::string& text, const std::string& where) {
+  const std::string fix =
+      "use m, cm, mm or um, or metres per unit as a number (0.025 for T in chessboard squares of 25 mm)";
+  char* end = nullptr;
+  const double number = std::strtod(text.c_str(), &end);
+  if (!text.empty() && end == text.c_str() + text.size()) {
+    if (!(number > 0) || !std::isfinite(number)) {
+      throw Error("the calibration's unit must be positive (got " + text + ")", where, fix);
     }
-    calibration.rectification = StereoCalibration::Rectification{
-        file.Matrix("R1", 3, 3), file.Matrix("R2", 3, 3), file.Matrix("P1", 3, 4),
-        file.Matrix("P2", 3, 4), file.Matrix("Q", 4, 4)};
+    return number;
+  }
+  try {
+    return MetresPerUnit(text, where);
+  } catch (const Error&) {
+    throw Error("unknown unit '" + text + "' for the calibration's T", where, fix);
+  }
+}
+
+StereoCalibration ReadStereoCalibration(const CalibrationSource& source, const std::optional<ImageSize>& video_size) {
+  if (source.files.empty() || source.files.size() > 3) {
+    throw Error(std::to_string(source.files.size()) + " calibration files given", source.Describe(),
+                kAcceptedCalibrations);
+  }
+  std::vector<CalibrationKeys> files;
+  std::vector<CalibrationLayout> layouts;
+  for (const std::string& path : source.files) {
+    files.emplace_back(path);
+    layouts.push_back(RecogniseLayout(files.back()));
+  }
+  using Layout = CalibrationLayout;
+  const auto find = [&](Layout layout) {
+    return std::find(layouts.begin(), layouts.end(), layout) - layouts.begin();
+  };
+  StereoCalibration calibration;
+  const CalibrationKeys* T_file = nullptr;  // the file and key T is read from, for the baseline's message
+  std::string T_key = "T";
+  std::optional<std::pair<int, int>> size;
+  if (files.size() == 1 && layouts[0] == Layout::kDynaguide) {
+    const CalibrationKeys& file = files[0];
+    if (file.Has("image_size")) size = file.ImageSize("image_size");
+    calibration.left = ReadCamera(file, "K1", "D1");
+    calibration.right = ReadCamera(file, "K2", "D2");
+    ReadExtrinsics(file, &calibration);
+    T_file = &file;
+  } else if (files.size() == 2 && find(Layout::kStereoCalibIntrinsics) < 2 && find(Layout::kExtrinsics) < 2) {
+    const CalibrationKeys& intrinsics = files[find(Layout::kStereoCalibIntrinsics)];
+    T_file = &files[find(Layout::kExtrinsics)];
+    calibration.left = ReadCamera(intrinsics, "M1", "D1");
+    calibration.right = ReadCamera(intrinsics, "M2", "D2");
+    ReadExtrinsics(*T_file, &calibration);
+  } else if (files.size() >= 2 && layouts[0] == Layout::kCameraInfo && layouts[1] == Layout::kCameraInfo &&
+             (files.size() == 2 || layouts[2] == Layout::kExtrinsics)) {
+    const CameraInfo left = ReadCameraInfo(files[0]), right = ReadCameraInfo(files[1]);
+    calibration.left = left.camera;
+    calibration.right = right.camera;
+    if (left.camera.width != right.camera.width || left.camera.height != right.camera.height) {
+      throw Error("the two cameras' image sizes differ (image_width, image_height)", source.Describe(),
+                  "give the camera_info of the two cameras that recorded the stereo video");
+    }
+    size = std::make_pair(left.camera.width, left.camera.height);
+    std::string why_not;
+    const bool from_pair = ExtrinsicsFromCameraInfos(left, right, files[0], &calibration, &why_not);
+    if (files.size() == 2) {
+      if (!from_pair) {
+        throw Error("the two camera_info files give no stereo extrinsics (R, T): " + why_not, source.Describe(),
+                    "add the stereo extrinsics as a third file, as OpenCV's stereo_calib writes extrinsics.yml "
+                    "(R T): calibration: [left.yaml, right.yaml, extrinsics.yml]");
+      }
+      T_file = &files[1];
+      T_key = "projection_matrix";
+    } else {
+      if (from_pair) {
+        throw Error("both the camera_info pair (the right camera's projection_matrix) and " + files[2].path() +
+                        " give the stereo extrinsics",
+                    source.Describe(), "give the two camera_info files alone, or drop the extrinsics file");
+      }
+      T_file = &files[2];
+      ReadExtrinsics(*T_file, &calibration);
+    }
+  } else {
+    throw Error("these files do not make one stereo calibration (read " + Recognised(files, layouts) + ")",
+                source.Describe(), kAcceptedCalibrations);
+  }
+  ScaleTranslations(source.metres_per_unit, &calibration);
+  CheckBaseline(*T_file, T_key, calibration.T_m, source.metres_per_unit);
+
+  if (!size && video_size) size = std::make_pair(video_size->width, video_size->height);
+  if (!size) {
+    throw Error("the calibration gives no image size and there is no video to take it from", source.Describe(),
+                "add image_size: [width, height] to the calibration, or read it with the video it calibrates "
+                "(a scene's video:, or dynaguide track with its input)");
+  }
+  for (CameraCalibration* camera : {&calibration.left, &calibration.right}) {
+    std::tie(camera->width, camera->height) = *size;
   }
   return calibration;
 }

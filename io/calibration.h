@@ -6,6 +6,8 @@
 
 #include <Eigen/Core>
 
+#include "io/calibration_source.h"
+
 namespace dg::io {
 
 // One camera of OpenCV's model: pinhole K and distortion coefficients in
@@ -47,10 +49,25 @@ struct StereoCalibration {
 // @throws dg::Error when the file cannot be written.
 void WriteStereoCalibration(const std::string& path, const StereoCalibration& calibration);
 
-// Reads that format (image_size may be given as [w, h]; E and F are
-// recomputed from the other keys). OpenCV's stereo_calib sample splits its
-// results into intrinsics.yml (M1 D1 M2 D2) and extrinsics.yml: those are not read.
-// @throws dg::Error naming the file and the missing or malformed key.
-StereoCalibration ReadStereoCalibration(const std::string& path);
+// A frame size in pixels, for a calibration whose files give none.
+struct ImageSize {
+  int width = 0, height = 0;
+};
+
+// Reads a stereo calibration from the files of `source` (one file in the
+// layout above, with image_size optional; OpenCV's stereo_calib sample's
+// intrinsics.yml and extrinsics.yml in either order; or the left and right
+// camera's camera_info, followed by an extrinsics file when the two give no
+// baseline; docs/formats/calibration.md). T (and the translations in P1, P2
+// and Q) are scaled by source.metres_per_unit. E and F are recomputed from
+// the other keys. Files without an image size take `video_size`, the size of
+// the video the calibration serves; a file's own size is kept (callers
+// compare it with the video's).
+// @throws dg::Error naming the file and the missing or malformed key; for a
+// file or a set of files of none of the accepted layouts, naming their key
+// sets; for no image size and no video_size; for a baseline |T| outside a
+// stereo endoscope's range, naming the unit T is probably in.
+StereoCalibration ReadStereoCalibration(const CalibrationSource& source,
+                                        const std::optional<ImageSize>& video_size = std::nullopt);
 
 }  // namespace dg::io

@@ -113,6 +113,34 @@ Scene::Overlays ReadOverlays(const YamlMap& map, const fs::path& directory) {
   return overlays;
 }
 
+// `calibration:` one path or a list of paths (two or three: a stereo pair's
+// files); `calibration_units:` the unit of their translations.
+CalibrationSource ReadCalibrationSource(const YamlMap& top, const fs::path& directory) {
+  CalibrationSource source;
+  const YAML::Node node = top.Node("calibration");
+  if (node.IsSequence()) {
+    for (const YAML::Node& item : node) {
+      if (!item.IsScalar()) {
+        throw Error("'calibration' must be a file or a list of files", top.Where("calibration"),
+                    "write calibration: calib.yaml or calibration: [intrinsics.yml, extrinsics.yml]");
+      }
+      source.files.push_back(ExistingFile(top, "calibration", directory, item.as<std::string>()));
+    }
+    if (source.files.empty() || source.files.size() > 3) {
+      throw Error("'calibration' lists " + std::to_string(source.files.size()) + " files", top.Where("calibration"),
+                  "give one file, two (intrinsics.yml and extrinsics.yml, or two camera_info) or three (two "
+                  "camera_info and extrinsics.yml)");
+    }
+  } else {
+    source.files.push_back(File(top, "calibration", directory));
+  }
+  if (top.Has("calibration_units")) {
+    source.metres_per_unit =
+        CalibrationMetresPerUnit(top.String("calibration_units"), top.Where("calibration_units"));
+  }
+  return source;
+}
+
 Scene::Video::Layout ReadLayout(const YamlMap& map) {
   const std::string name = map.String("layout", "two_files");
   if (name == "two_files") return Scene::Video::Layout::kTwoFiles;
@@ -244,7 +272,7 @@ Scene ReadScene(const std::string& path) {
   }
   if (top.Has("preoperative")) scene.preoperative = ReadPreoperative(top.Map("preoperative"), directory);
   if (top.Has("overlays")) scene.overlays = ReadOverlays(top.Map("overlays"), directory);
-  scene.calibration = File(top, "calibration", directory);
+  scene.calibration = ReadCalibrationSource(top, directory);
   if (top.Has("calibration_images")) scene.calibration_images = (directory / top.String("calibration_images")).string();
 
   scene.video = ReadVideo(top.Map("video"), directory);

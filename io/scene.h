@@ -4,6 +4,7 @@
 #include <string>
 #include <vector>
 
+#include "io/calibration_source.h"
 #include "sim/inverse_interval.h"
 #include "sim/material.h"
 
@@ -52,7 +53,9 @@ struct Scene {
   };
   std::optional<Overlays> overlays;
 
-  std::string calibration;  // OpenCV stereo calibration YAML
+  // `calibration:` one file or a list of files (docs/formats/calibration.md),
+  // and T's unit (`calibration_units:`; absent: metres).
+  CalibrationSource calibration;
   std::string calibration_images;  // printf pattern with %s (left/right) and %d, optional
 
   struct Video {

@@ -88,19 +88,21 @@ void CheckGivenPose(const io::Scene& scene, const io::Registration& given, const
 SceneGraph BuildSceneGraph(const io::Scene& scene, const GraphOptions& options, const FrontEndSettings& settings,
                            const OverlaySettings& overlay_settings) {
   SceneGraph built;
-  built.calibration = io::ReadStereoCalibration(scene.calibration);
   auto source = std::make_unique<CaptureSource>(CaptureOptions(scene.video), scene.video.rectified);
+  // A calibration without an image size (OpenCV's stereo_calib sample writes none) takes the video's.
+  built.calibration = io::ReadStereoCalibration(scene.calibration, io::ImageSize{source->size().width,
+                                                                                 source->size().height});
   const cv::Size calibrated(built.calibration.left.width, built.calibration.left.height);
   if (source->size() != calibrated) {
     throw Error("the video is " + SizeText(source->size()) + " but the calibration is for " + SizeText(calibrated),
-                scene.calibration, "use the calibration of the camera and resolution that recorded the video");
+                scene.calibration.Describe(), "use the calibration of the camera and resolution that recorded the video");
   }
 
   std::vector<std::unique_ptr<PacketStage>> stages;
   if (scene.video.rectified) {
     if (!built.calibration.rectification) {
       throw Error("the scene says the video is rectified, but the calibration has no rectification (R1 R2 P1 P2 Q)",
-                  scene.calibration, "add the rectification that produced the video (dynaguide calibrate writes it)");
+                  scene.calibration.Describe(), "add the rectification that produced the video (dynaguide calibrate writes it)");
     }
   } else {
     auto rectify = std::make_shared<const stages::RectifyStage>(stages::RectifyStage::Options{}, built.calibration);

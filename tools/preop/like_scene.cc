@@ -56,8 +56,15 @@ void WriteSceneLike(const std::string& like_scene, const std::string& out_dir, c
   }
   root["overlays"] = overlays;
 
-  for (const char* key : {"calibration", "calibration_images", "truth"}) {
+  for (const char* key : {"calibration_images", "truth"}) {
     if (root[key]) root[key] = absolute(root[key]);
+  }
+  if (root["calibration"] && root["calibration"].IsSequence()) {  // a stereo pair's files
+    YAML::Node files(YAML::NodeType::Sequence);
+    for (const YAML::Node& file : root["calibration"]) files.push_back(absolute(file));
+    root["calibration"] = files;
+  } else if (root["calibration"]) {
+    root["calibration"] = absolute(root["calibration"]);
   }
   for (const char* key : {"left", "right"}) {
     if (root["video"][key]) root["video"][key] = absolute(root["video"][key]);

@@ -128,7 +128,9 @@ RegisterRunSummary RunRegister(const RegisterRunOptions& given) {
 
   auto start = std::chrono::steady_clock::now();
   if (options.progress) std::fprintf(stderr, "register: tracking %zu fiducials over %.2f cycles\n", first_uv.size(), options.cycles);
-  const stages::FiducialTracks tracks = TrackFiducialsInVideo(scene, first_uv, options.cycles * scan.period_s);
+  io::StereoCalibration calibration;
+  const stages::FiducialTracks tracks =
+      TrackFiducialsInVideo(scene, first_uv, options.cycles * scan.period_s, &calibration);
   summary.track_ms = MsSince(start);
   summary.frames = static_cast<int>(tracks.t_s.size());
   const double frame_s = summary.frames > 1 ? (tracks.t_s.back() - tracks.t_s.front()) / (summary.frames - 1) : 0;
@@ -140,7 +142,7 @@ RegisterRunSummary RunRegister(const RegisterRunOptions& given) {
   }
 
   start = std::chrono::steady_clock::now();
-  summary.result = stages::RegisterScanToVideo(motion, io::ReadStereoCalibration(scene.calibration), scan.period_s,
+  summary.result = stages::RegisterScanToVideo(motion, calibration, scan.period_s,
                                                tracks, options.solver);
   summary.solve_ms = MsSince(start);
   if (!scene.truth.empty()) {

@@ -17,13 +17,15 @@ constexpr double kNear_m = 0.03, kFar_m = 0.30;
 }  // namespace
 
 stages::FiducialTracks TrackFiducialsInVideo(const io::Scene& scene, const std::vector<Eigen::Vector2d>& first_uv_left_px,
-                                             double window_s) {
+                                             double window_s, io::StereoCalibration* calibration_read) {
   stages::CaptureStage::Options capture_options;
   capture_options.left_path = scene.video.left;
   capture_options.right_path = scene.video.right;
   capture_options.fps = scene.video.fps;
   stages::CaptureStage capture(capture_options);
-  io::StereoCalibration calibration = io::ReadStereoCalibration(scene.calibration);
+  io::StereoCalibration calibration =
+      io::ReadStereoCalibration(scene.calibration, io::ImageSize{capture.size().width, capture.size().height});
+  if (calibration_read) *calibration_read = calibration;
   const stages::RectifyStage rectify(stages::RectifyStage::Options{}, calibration);
   calibration.rectification = rectify.rectification();
   const stages::Triangulator geometry(calibration);

@@ -52,8 +52,13 @@ io::Scene FrontEndScene(const FrontEndInput& input) {
     scene.path = "the command line";
   }
   if (!input.calibration.empty()) scene.calibration = input.calibration;
+  if (!input.calibration_units.empty()) {
+    scene.calibration.metres_per_unit = io::CalibrationMetresPerUnit(input.calibration_units, "--calib-units");
+  }
   if (scene.calibration.empty()) {
-    throw Error("no calibration given", "dynaguide track", "give --calib calib.yaml (made by dynaguide calibrate)");
+    throw Error("no calibration given", "dynaguide track",
+                "give --calib calib.yaml (made by dynaguide calibrate), or a stereo pair's files (--calib "
+                "intrinsics.yml extrinsics.yml)");
   }
   // Cut after tracking: nothing to register, simulate or draw.
   scene.registration.reset();

@@ -2,6 +2,7 @@
 
 #include <string>
 
+#include "io/calibration_source.h"
 #include "io/scene.h"
 #include "pipeline/scene_graph.h"
 
@@ -12,7 +13,10 @@ namespace dg::tools {
 struct FrontEndInput {
   std::string scene;             // scene.yaml: its video (any layout) and calibration
   std::string left, right;       // instead of a scene: two videos, two image patterns or one image pair
-  std::string calibration;       // overrides the scene's
+  // Overrides the scene's: one file, or the files of a stereo pair
+  // (docs/formats/calibration.md); T in metres unless calibration_units says.
+  io::CalibrationSource calibration;
+  std::string calibration_units;  // T's unit (m, cm, mm, um, or metres per unit), for --calib or the scene's
   double fps = 0;                // overrides the scene's; needed for image sequences, which carry no frame rate
   // The depths (along the left camera's axis) that stereo matching searches:
   // converted with the calibration to the disparity range, so a narrower

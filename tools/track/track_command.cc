@@ -30,7 +30,13 @@ void AddTrackCommand(CLI::App& app) {
   command->add_option("scene", options->input.scene, "Scene file (scene.yaml) naming the video and calibration");
   command->add_option("--left", options->input.left, "Left video, image sequence (printf or glob) or image");
   command->add_option("--right", options->input.right, "Right video, image sequence or image");
-  command->add_option("--calib", options->input.calibration, "Stereo calibration YAML (overrides the scene's)");
+  command
+      ->add_option("--calib", options->input.calibration.files,
+                   "Stereo calibration (overrides the scene's): one file, or intrinsics.yml extrinsics.yml, or "
+                   "left and right camera_info [and extrinsics.yml]")
+      ->expected(1, 3);
+  command->add_option("--calib-units", options->input.calibration_units,
+                      "Unit of the calibration's T: m (default), cm, mm, um, or metres per unit (0.0025 for 2.5 mm squares)");
   command->add_option("--fps", options->input.fps, "Frame rate (needed for image sequences; overrides the scene's)");
   command->add_option("--near", options->input.near_m, "Nearest depth matched, metres (sets the disparity range)")
       ->capture_default_str();
