@@ -205,7 +205,7 @@ TEST_CASE("export slicer: the tiny phantom's models, registration and CT read ba
       worst_forward = std::max(worst_forward, Relative(Eigen::Vector3d(to_scan.GetDataPointer()), X_S_mm));
       worst_inverse = std::max(worst_inverse, Relative(Eigen::Vector3d(to_camera.GetDataPointer()), x_C_mm));
     }
-    // ITK's text keeps 17 significant digits: measured 4e-16 and 3e-16.
+    // ITK prints each number so that it reads back as the same double: measured 4e-16 and 3e-16.
     CHECK(worst_forward <= 1e-14);
     CHECK(worst_inverse <= 1e-14);
   }

@@ -7,7 +7,6 @@
 // system's comes first so that ITK's defers to it.
 #include <Eigen/Dense>
 #include <itkAffineTransform.h>
-#include <itkHDF5TransformIOFactory.h>
 #include <itkImage.h>
 #include <itkImageFileReader.h>
 #include <itkImageFileWriter.h>
@@ -24,12 +23,9 @@ namespace {
 
 // ITK finds transform IO only through registered factories, as it finds
 // image IO (io/ct/itk_factories.h says why none is registered by itself).
-void RegisterItkTransformIo() {
+void RegisterItkTextTransformIo() {
   static std::once_flag once;
-  std::call_once(once, [] {
-    itk::TxtTransformIOFactory::RegisterOneFactory();
-    itk::HDF5TransformIOFactory::RegisterOneFactory();
-  });
+  std::call_once(once, [] { itk::TxtTransformIOFactory::RegisterOneFactory(); });
 }
 
 template <typename Pixel>
@@ -71,10 +67,10 @@ ImageGeometryMm Rewrite(const std::string& image, const std::string& out_mhd) {
 
 void WriteItkAffineTransform(const std::string& path, const Eigen::Matrix4d& T_mm) {
   const std::string extension = std::filesystem::path(path).extension().string();
-  if (extension != ".tfm" && extension != ".txt" && extension != ".h5") {
-    throw Error("an ITK transform file must end in .tfm, .txt or .h5", path, "name the file FILE.tfm or FILE.h5");
+  if (extension != ".tfm" && extension != ".txt") {
+    throw Error("an ITK text transform file must end in .tfm or .txt", path, "name the file FILE.tfm");
   }
-  RegisterItkTransformIo();
+  RegisterItkTextTransformIo();
   using Affine = itk::AffineTransform<double, 3>;
   auto transform = Affine::New();
   Affine::MatrixType matrix;

@@ -9,11 +9,11 @@ namespace dg::tools {
 // Writes the affine map x -> T_mm x (millimetres) as an ITK transform file
 // through ITK's own writer (itk::TransformFileWriterTemplate<double>): one
 // AffineTransform_double_3_3 with a zero centre, its matrix the upper 3x3 of
-// T_mm and its translation the last column. The extension picks ITK's
-// format: .tfm or .txt (ITK's text), .h5 (HDF5). ITK, and so Slicer, read
+// T_mm and its translation the last column, in ITK's text format (.tfm or
+// .txt), each number printed to read back as the same double. ITK, and so Slicer, read
 // the map in the resampling sense: from the fixed space to the moving space.
 // @throws dg::Error naming the file when ITK cannot write it or the extension
-//   is none of those.
+//   is neither of those.
 void WriteItkAffineTransform(const std::string& path, const Eigen::Matrix4d& T_mm);
 
 // The geometry ITK reports for an image: millimetres, its physical frame.
