@@ -23,6 +23,7 @@ using h5::Handle;
 using h5::kMetadataBytes;
 using h5::Quiet;
 using h5::ReserveSpace;
+using h5::Untimed;
 
 std::string Where(const std::string& path, const std::string& object) {
   return path + ":" + object;
@@ -65,14 +66,6 @@ Handle Dataspace(const H5Shape& shape, const std::string& where) {
 Handle CreatingParents(const std::string& where) {
   Handle properties(Checked(H5Pcreate(H5P_LINK_CREATE), "create properties", where), H5Pclose);
   Checked(H5Pset_create_intermediate_group(properties.get(), 1), "set properties", where);
-  return properties;
-}
-
-// Object creation properties without modification times: HDF5 stamps each
-// object with the clock by default, so the same data would give different bytes.
-Handle Untimed(hid_t property_class, const std::string& where) {
-  Handle properties(Checked(H5Pcreate(property_class), "create properties", where), H5Pclose);
-  Checked(H5Pset_obj_track_times(properties.get(), 0), "set properties", where);
   return properties;
 }
 

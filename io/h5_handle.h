@@ -90,6 +90,14 @@ Status Checked(Status status, const std::string& what, const std::string& where,
               OutOfSpace(cause.os_errno) ? kSpaceFix : fix);
 }
 
+// Object creation properties without modification times: HDF5 stamps each
+// object with the clock by default, so the same data would give different bytes.
+inline Handle Untimed(hid_t property_class, const std::string& where) {
+  Handle properties(Checked(H5Pcreate(property_class), "create properties", where), H5Pclose);
+  Checked(H5Pset_obj_track_times(properties.get(), 0), "set properties", where);
+  return properties;
+}
+
 // Room for what HDF5 adds to a file beside the data of one write: object
 // headers, a global heap collection (4 KiB) for a string, B-tree nodes.
 inline constexpr hsize_t kMetadataBytes = 16 * 1024;

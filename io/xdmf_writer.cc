@@ -25,6 +25,7 @@ using h5::Handle;
 using h5::kMetadataBytes;
 using h5::Quiet;
 using h5::ReserveSpace;
+using h5::Untimed;
 
 // A matrix with one column per node or element is, in memory, the row-major
 // (rows x components) array XDMF reads; a scalar field is stored 1-D.
@@ -34,7 +35,8 @@ void WriteDataset(hid_t parent, const std::string& name, hid_t type, const void*
   Handle space(Checked(H5Screate_simple(components == 1 ? 1 : 2, dims, nullptr),
                        "create a dataspace", where),
                H5Sclose);
-  Handle set(Checked(H5Dcreate2(parent, name.c_str(), type, space.get(), H5P_DEFAULT, H5P_DEFAULT,
+  const Handle creation = Untimed(H5P_DATASET_CREATE, where);
+  Handle set(Checked(H5Dcreate2(parent, name.c_str(), type, space.get(), H5P_DEFAULT, creation.get(),
                                 H5P_DEFAULT),
                      "create dataset " + name, where),
              H5Dclose);
@@ -59,7 +61,7 @@ void WriteRootAttribute(hid_t file, const char* name, int value, const std::stri
 void CreateTimeDataset(hid_t file, const std::string& where) {
   const hsize_t dims[1] = {0}, max_dims[1] = {H5S_UNLIMITED}, chunk[1] = {256};
   Handle space(Checked(H5Screate_simple(1, dims, max_dims), "create a dataspace", where), H5Sclose);
-  Handle properties(Checked(H5Pcreate(H5P_DATASET_CREATE), "create properties", where), H5Pclose);
+  const Handle properties = Untimed(H5P_DATASET_CREATE, where);
   Checked(H5Pset_chunk(properties.get(), 1, chunk), "set chunking", where);
   Handle set(Checked(H5Dcreate2(file, "time_s", H5T_NATIVE_DOUBLE, space.get(), H5P_DEFAULT,
                                 properties.get(), H5P_DEFAULT),
@@ -83,7 +85,8 @@ void AppendTime(hid_t file, hsize_t index, double t_s, const std::string& where)
 }
 
 hid_t CreateGroup(hid_t parent, const std::string& name, const std::string& where) {
-  return Checked(H5Gcreate2(parent, name.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT),
+  const Handle creation = Untimed(H5P_GROUP_CREATE, where);
+  return Checked(H5Gcreate2(parent, name.c_str(), H5P_DEFAULT, creation.get(), H5P_DEFAULT),
                  "create group " + name, where);
 }
 

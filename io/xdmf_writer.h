@@ -18,7 +18,7 @@ struct XdmfSeriesOptions {
   bool deformed_geometry = false;
   // true: the .xmf is rewritten after every step, so even a killed process
   // leaves every step listed. false: it is rewritten once the steps since the
-  // last rewrite reach a sixteenth of those written (every step up to 32), and
+  // last rewrite reach a sixteenth of those written (every step up to 31), and
   // at Close(): its rewrites cost time linear in the steps, not quadratic, for
   // a long series, and a killed process leaves the steps up to the last
   // rewrite listed (the .h5 holds every step).

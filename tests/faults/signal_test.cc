@@ -22,6 +22,7 @@
 #include <opencv2/videoio.hpp>
 
 #include "io/registration_file.h"
+#include "tests/io/xml_well_formed.h"
 #include "tests/support/h5_plain.h"
 #include "tests/support/tiny_phantom.h"
 #include "tools/sim/builtin_problem.h"
@@ -176,6 +177,7 @@ void CheckRunInterruptedBy(int signal, const std::string& signal_name) {
   REQUIRE_FALSE(simulated.empty());
   CHECK(simulated.back() == last_frame);
   CHECK(IntAttribute(file, "/", "simulated_frames") == static_cast<long long>(simulated.size()));
+  const std::vector<double> simulated_t_s = Doubles(file, "/sim/t_s");
 
   // The registration the run solved, written for a scene to reuse.
   REQUIRE(IntAttribute(file, "/registration", "frame") <= last_frame);
@@ -190,6 +192,17 @@ void CheckRunInterruptedBy(int signal, const std::string& signal_name) {
   REQUIRE(video.isOpened());
   CHECK(video.get(cv::CAP_PROP_FRAME_COUNT) > 0);
   CHECK(video.get(cv::CAP_PROP_FRAME_COUNT) == video_frames);
+
+  // The mesh series (written by default for so short a run): marked
+  // incomplete, holding the frames simulated, and its .xmf lists those alone.
+  const hid_t series = H5Fopen((out + "/mesh_series.h5").c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+  REQUIRE(series >= 0);
+  CHECK(IntAttribute(series, "/", "complete") == 0);
+  CHECK(Doubles(series, "/time_s") == simulated_t_s);
+  H5Fclose(series);
+  const std::string xmf = ReadText(out + "/mesh_series.xmf");
+  CHECK(dg::io::testing::XmlProblem(xmf) == "");
+  CHECK(Occurrences(xmf, "<Time Value=") == simulated.size());
 }
 
 // The built-in sim problem (20000 tets by default, here 6000) for 20 s with

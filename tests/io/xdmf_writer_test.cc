@@ -3,9 +3,13 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <regex>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -224,6 +228,128 @@ TEST_CASE("xdmf_writer: bad input is refused", "[io][unit]") {
                       Catch::Contains("not after the previous"));
   REQUIRE(writer.num_steps() == 1);
   writer.Close(true);
+}
+
+namespace {
+
+// ParaView's XDMF reader (pvpython, Debian's `python3-paraview`), where
+// installed: each time step's time and its points, as ParaView plays them.
+// Empty without pvpython.
+std::vector<std::vector<double>> ParaViewSteps(const std::string& xmf_path) {
+  const char* pvpython = "/usr/bin/pvpython";
+  if (!std::filesystem::exists(pvpython)) return {};
+  const std::string script = xmf_path + ".py";
+  std::ofstream(script) << "from paraview.simple import XDMFReader, servermanager\n"
+                           "r = XDMFReader(FileNames=['"
+                        << xmf_path
+                        << "'])\n"
+                           "r.UpdatePipelineInformation()\n"
+                           "for t in r.TimestepValues:\n"
+                           "    r.UpdatePipeline(t)\n"
+                           "    data = servermanager.Fetch(r)\n"
+                           "    block = data.GetBlock(0) if data.IsA('vtkMultiBlockDataSet') else data\n"
+                           "    points = block.GetPoints()\n"
+                           "    values = [t] + [points.GetPoint(i)[j] for i in range(points.GetNumberOfPoints()) "
+                           "for j in range(3)]\n"
+                           "    print('step', ' '.join(repr(v) for v in values))\n";
+  const std::string command = std::string(pvpython) + " --force-offscreen-rendering " + script + " 2>&1";
+  FILE* pipe = popen(command.c_str(), "r");
+  REQUIRE(pipe);
+  std::string output;
+  char buffer[4096];
+  while (fgets(buffer, sizeof buffer, pipe)) output += buffer;
+  REQUIRE(pclose(pipe) == 0);
+  INFO(output);
+  std::vector<std::vector<double>> steps;
+  std::istringstream lines(output);
+  for (std::string line; std::getline(lines, line);) {
+    if (line.rfind("step ", 0) != 0) continue;
+    std::istringstream values(line.substr(5));
+    steps.emplace_back(std::istream_iterator<double>(values), std::istream_iterator<double>());
+  }
+  REQUIRE_FALSE(steps.empty());
+  return steps;
+}
+
+}  // namespace
+
+// With deformed_geometry each step's grid takes X + u as its geometry, so
+// that ParaView plays the motion as it opens the file; with h5_file_name the
+// data goes to that file, which the .xmf names. Read back through HDF5 and,
+// where installed, ParaView's XDMF reader (its points at each time step).
+TEST_CASE("xdmf_writer: deformed geometry per step, in a data file of its own name", "[io][unit]") {
+  const sim::TetMesh mesh = testing::TwoTets();
+  const std::string stem = OutputStem("xdmf_writer_test_deformed");
+  const std::string data = std::string(DG_BINARY_DIR) + "/xdmf_writer_test_deformed_data.h5";
+  std::filesystem::remove(data);
+  XdmfSeriesOptions options;
+  options.deformed_geometry = true;
+  options.h5_file_name = "xdmf_writer_test_deformed_data.h5";
+  {
+    XdmfTimeSeriesWriter writer(stem, mesh, options);
+    REQUIRE(writer.h5_path() == data);
+    for (int k = 0; k < 3; ++k) writer.Append(0.25 * k, Displacement(k), {});
+    writer.Close(true);
+  }
+  REQUIRE_FALSE(std::filesystem::exists(stem + ".h5"));
+  const std::string xmf = ReadText(stem + ".xmf");
+  REQUIRE(testing::XmlProblem(xmf) == "");
+  const std::vector<std::string> geometry =
+      Matches(xmf, R"re(<Geometry[^>]*>\s*<DataItem[^>]*>([^<]+)</DataItem>)re");
+  REQUIRE(geometry.size() == 3);
+  H5File file(data);
+  for (int k = 0; k < 3; ++k) {
+    REQUIRE(geometry[k] == "xdmf_writer_test_deformed_data.h5:/steps/00000" + std::to_string(k) + "/geometry_m");
+    const Eigen::Matrix3Xd deformed = mesh.X_m + Displacement(k);
+    std::vector<hsize_t> dims;
+    REQUIRE(file.Read(geometry[k].substr(geometry[k].find(':') + 1), &dims) ==
+            std::vector<double>(deformed.data(), deformed.data() + deformed.size()));
+  }
+
+  const std::vector<std::vector<double>> paraview = ParaViewSteps(stem + ".xmf");
+  if (paraview.empty()) {
+    WARN("pvpython (Debian's python3-paraview) is not installed: the series was not read through ParaView");
+  } else {
+    REQUIRE(paraview.size() == 3);
+    for (int k = 0; k < 3; ++k) {
+      REQUIRE(paraview[k].size() == 1 + 15);
+      CHECK(paraview[k][0] == 0.25 * k);
+      // ParaView's XDMF reader hands the points over as float.
+      const Eigen::Matrix3Xd deformed = mesh.X_m + Displacement(k);
+      for (int i = 0; i < 15; ++i) CHECK(paraview[k][1 + i] == Approx(deformed.data()[i]).epsilon(1e-7).margin(1e-7));
+    }
+  }
+
+  options.h5_file_name = "sub/data.h5";
+  REQUIRE_THROWS_WITH(XdmfTimeSeriesWriter(stem, mesh, options), Catch::Contains("is a path"));
+}
+
+// Without xmf_every_step the .xmf is rewritten at a sixteenth's growth: while
+// the series grows it lists a prefix of the steps (never one the .h5 lacks),
+// at most a sixteenth behind, in a number of rewrites that grows with the
+// logarithm of the steps; Close() lists them all.
+TEST_CASE("xdmf_writer: a long series rewrites its .xmf at a sixteenth's growth", "[io][unit]") {
+  const std::string stem = OutputStem("xdmf_writer_test_long");
+  XdmfSeriesOptions options;
+  options.xmf_every_step = false;
+  XdmfTimeSeriesWriter writer(stem, testing::TwoTets(), options);
+  const int steps = 200;
+  int rewrites = 0;
+  size_t listed = 0;
+  for (int k = 0; k < steps; ++k) {
+    writer.Append(0.01 * k, Displacement(k), {});
+    const size_t now = Matches(ReadText(stem + ".xmf"), R"re(<Time Value="([^"]+)"/>)re").size();
+    REQUIRE(now <= size_t(k + 1));
+    REQUIRE(now + std::max(1, (k + 1) / 16) > size_t(k + 1));
+    if (now != listed) ++rewrites;
+    listed = now;
+  }
+  // Every step up to 31, then at a sixteenth's growth (rounded down): about
+  // 31 + ln(200 / 32) / ln(17 / 16) = 61; 63 with the rounding. Every step: 200.
+  CHECK(rewrites == 63);
+  writer.Close(false);
+  REQUIRE(Matches(ReadText(stem + ".xmf"), R"re(<Time Value="([^"]+)"/>)re").size() == size_t(steps));
+  REQUIRE(H5File(stem + ".h5").RootIntAttribute("complete") == 0);
 }
 
 // The test's XML check itself accepts well-formed text and names what is wrong otherwise.
