@@ -237,3 +237,53 @@ TEST_CASE("phantom: scan.xmf plays scan.h5's per-phase node displacement", "[too
 }
 
 }  // namespace dg::tools
+
+namespace dg::tools {
+
+// In surface mode nothing is recovered: the series holds no forces, and
+// still the tied nodes; left unset, --mesh-series is on for so short a run.
+// A scene without simulation has no mesh to write: asking for the series is
+// refused before the run starts.
+TEST_CASE("run: the mesh series in surface mode, by default, and refused without simulation",
+          "[tools][integration]") {
+  const std::string dir = TinyPhantomDir();
+  std::string text = ReadText(dir + "/scene.yaml");
+  const std::string combined = "  mode: combined";
+  REQUIRE(text.find(combined) != std::string::npos);
+  text.replace(text.find(combined), combined.size(), "  mode: surface");
+  std::ofstream(dir + "/scene_surface.yaml") << text;
+  RunOptions options;
+  options.scene = dir + "/scene_surface.yaml";
+  options.out_dir = dir + "/run_mesh_series_surface";
+  options.threads = 2;
+  options.progress = false;
+  options.video = false;
+  const RunOutcome outcome = RunScene(options);
+  REQUIRE(outcome.mesh_series_path == options.out_dir + "/mesh_series.xmf");
+  const hid_t file = H5Fopen((options.out_dir + "/mesh_series.h5").c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+  REQUIRE(file >= 0);
+  CHECK(IntAttribute(file, "/", "complete") == 1);
+  const size_t frames = Doubles(file, "/time_s").size();
+  CHECK(static_cast<std::int64_t>(frames) == outcome.simulated_frames);
+  for (size_t k = 0; k < frames; ++k) {
+    CHECK(Exists(file, StepPath(k, "point/tied")));
+    CHECK_FALSE(Exists(file, StepPath(k, "point/recovered_force_n")));
+  }
+  RequireXmfMatchesH5(outcome.mesh_series_path, "mesh_series.h5", file, frames);
+  H5Fclose(file);
+  CHECK_THAT(ReadText(outcome.mesh_series_path), !Catch::Contains("recovered_force_n"));
+
+  // The scene without its simulation: block.
+  std::string plain = ReadText(dir + "/scene.yaml");
+  const size_t begin = plain.find("\nsimulation:");
+  REQUIRE(begin != std::string::npos);
+  plain.erase(begin + 1, plain.find("\ntruth:") - begin);
+  std::ofstream(dir + "/scene_no_simulation.yaml") << plain;
+  options.scene = dir + "/scene_no_simulation.yaml";
+  options.out_dir = dir + "/run_no_simulation";
+  options.mesh_series = true;
+  REQUIRE_THROWS_WITH(RunScene(options), Catch::Contains("--mesh-series asks for the simulated mesh") &&
+                                             Catch::Contains("add a simulation: block"));
+}
+
+}  // namespace dg::tools
