@@ -19,6 +19,7 @@
 #include "sim/error.h"
 #include "tests/io/two_tets.h"
 #include "tests/io/xml_well_formed.h"
+#include "tests/support/text_file.h"
 
 namespace dg::io {
 namespace {
@@ -30,10 +31,8 @@ Eigen::Matrix3Xd Displacement(int k) {
   return u;
 }
 
-std::string ReadText(const std::string& path) {
-  std::ifstream in(path);
-  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-}
+using dg::testing::Matches;
+using dg::testing::ReadText;
 
 // The HDF5 file, opened read-only with the C API, closed at scope exit.
 class H5File {
@@ -70,15 +69,6 @@ class H5File {
  private:
   hid_t id_;
 };
-
-std::vector<std::string> Matches(const std::string& text, const std::string& pattern) {
-  std::vector<std::string> found;
-  const std::regex expression(pattern);
-  for (std::sregex_iterator it(text.begin(), text.end(), expression), end; it != end; ++it) {
-    found.push_back((*it)[1]);
-  }
-  return found;
-}
 
 std::string OutputStem(const std::string& name) {
   const std::string stem = std::string(DG_BINARY_DIR) + "/" + name;

@@ -17,6 +17,7 @@
 
 #include "tests/io/xml_well_formed.h"
 #include "tests/support/h5_plain.h"
+#include "tests/support/text_file.h"
 #include "tests/support/tiny_phantom.h"
 #include "tools/run/run_job.h"
 
@@ -24,22 +25,10 @@ namespace dg::tools {
 namespace {
 
 namespace fs = std::filesystem;
+using dg::testing::Matches;
+using dg::testing::ReadText;
 using dg::testing::TinyPhantomDir;
 using namespace dg::testing::h5_plain;
-
-std::string ReadText(const std::string& path) {
-  std::ifstream in(path);
-  return {std::istreambuf_iterator<char>(in), {}};
-}
-
-std::vector<std::string> Matches(const std::string& text, const std::string& pattern) {
-  std::vector<std::string> found;
-  const std::regex expression(pattern);
-  for (std::sregex_iterator it(text.begin(), text.end(), expression), end; it != end; ++it) {
-    found.push_back((*it)[1]);
-  }
-  return found;
-}
 
 // A dataset's dimensions, through the plain C API.
 std::vector<hsize_t> Dims(hid_t file, const std::string& dataset) {
@@ -60,6 +49,17 @@ bool Exists(hid_t file, const std::string& path) {
     if (H5Lexists(file, prefix.c_str(), H5P_DEFAULT) <= 0) return false;
     if (slash == std::string::npos) return true;
   }
+}
+
+// A quick run of a tiny phantom scene: two threads, no progress, no video.
+RunOptions TinyRun(const std::string& scene, const std::string& out_dir) {
+  RunOptions options;
+  options.scene = scene;
+  options.out_dir = out_dir;
+  options.threads = 2;
+  options.progress = false;
+  options.video = false;
+  return options;
 }
 
 std::string StepPath(size_t k, const std::string& name) {
@@ -124,12 +124,7 @@ std::vector<long long> ParaViewCounts(const std::string& xmf_path) {
 // and finite; the .xmf names only datasets of the .h5.
 TEST_CASE("run: --mesh-series writes the simulated mesh per frame, as the run log records it",
           "[tools][integration]") {
-  RunOptions options;
-  options.scene = TinyPhantomDir() + "/scene.yaml";
-  options.out_dir = TinyPhantomDir() + "/run_mesh_series";
-  options.threads = 2;
-  options.progress = false;
-  options.video = false;
+  RunOptions options = TinyRun(TinyPhantomDir() + "/scene.yaml", TinyPhantomDir() + "/run_mesh_series");
   options.mesh_series = true;
   const RunOutcome outcome = RunScene(options);
   REQUIRE(outcome.mesh_series_path == options.out_dir + "/mesh_series.xmf");
@@ -236,9 +231,6 @@ TEST_CASE("phantom: scan.xmf plays scan.h5's per-phase node displacement", "[too
   H5Fclose(file);
 }
 
-}  // namespace dg::tools
-
-namespace dg::tools {
 
 // In surface mode nothing is recovered: the series holds no forces, and
 // still the tied nodes; left unset, --mesh-series is on for so short a run.
@@ -248,16 +240,10 @@ TEST_CASE("run: the mesh series in surface mode, by default, and refused without
           "[tools][integration]") {
   const std::string dir = TinyPhantomDir();
   std::string text = ReadText(dir + "/scene.yaml");
-  const std::string combined = "  mode: combined";
-  REQUIRE(text.find(combined) != std::string::npos);
-  text.replace(text.find(combined), combined.size(), "  mode: surface");
-  std::ofstream(dir + "/scene_surface.yaml") << text;
-  RunOptions options;
-  options.scene = dir + "/scene_surface.yaml";
-  options.out_dir = dir + "/run_mesh_series_surface";
-  options.threads = 2;
-  options.progress = false;
-  options.video = false;
+  const size_t mode = text.find("  mode: combined");
+  REQUIRE(mode != std::string::npos);
+  std::ofstream(dir + "/scene_surface.yaml") << text.replace(mode, 16, "  mode: surface");
+  RunOptions options = TinyRun(dir + "/scene_surface.yaml", dir + "/run_mesh_series_surface");
   const RunOutcome outcome = RunScene(options);
   REQUIRE(outcome.mesh_series_path == options.out_dir + "/mesh_series.xmf");
   const hid_t file = H5Fopen((options.out_dir + "/mesh_series.h5").c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);

@@ -19,6 +19,7 @@
 #include "io/registration_file.h"
 #include "sim/error.h"
 #include "tests/support/h5_plain.h"
+#include "tests/support/text_file.h"
 #include "tests/support/tiny_phantom.h"
 #include "tools/report/saved_run.h"
 #include "tools/report/timing_plot.h"
@@ -28,13 +29,9 @@ namespace dg::tools {
 namespace {
 
 namespace fs = std::filesystem;
+using dg::testing::ReadText;
 using dg::testing::TinyPhantomDir;
 using namespace dg::testing::h5_plain;
-
-std::string ReadText(const std::string& path) {
-  std::ifstream in(path);
-  return {std::istreambuf_iterator<char>(in), {}};
-}
 
 std::int64_t CountFrames(const std::string& video_path) {
   cv::VideoCapture video(video_path);
