@@ -22,7 +22,7 @@ struct H5Column {
   std::size_t width = 1;
   // For a coded column, what its values mean (e.g. "0 corner, 1 MSER"): the
   // dataset's text attribute `values`, so a reader of the file need not guess.
-  std::string values;
+  std::string values{};
 };
 
 // The values of one column for a block of rows: rows * width values in row

@@ -351,7 +351,7 @@ void XdmfTimeSeriesWriter::Append(double t_s, const Eigen::Matrix3Xd& displaceme
   CheckMeshFields(fields, impl.num_nodes, impl.num_tets, impl.h5_path + ", " + step_name);
   char group_name[32];
   std::snprintf(group_name, sizeof(group_name), "/steps/%06zu", impl.steps.size());
-  Step step{t_s, {}};
+  Step step{t_s, {}, {}};
   Quiet();
   hsize_t values = displacement_m.size();
   for (const auto& [name, data] : fields.point_data) values += data.size();

@@ -165,8 +165,9 @@ void ConstraintMapper::Process(const std::vector<TrackedPoint>& points,
     if (found == tie_of_feature_.end()) continue;
     Tie& tie = ties_[found->second];
     if (tie.seen_as >= 0) continue;  // a feature id twice in one frame: the first sighting counts
-    Seen seen{found->second, first_displacement_S_m_.col(tie.node) + (T_S_C_ * point.xyz_C_m - tie.first_S_m)};
-    seen.residual_S_m = seen.target_S_m;
+    const Eigen::Vector3d target_S_m =
+        first_displacement_S_m_.col(tie.node) + (T_S_C_ * point.xyz_C_m - tie.first_S_m);
+    Seen seen{found->second, target_S_m, target_S_m};
     if (predicted_displacement_S_m) {
       seen.residual_S_m -= predicted_displacement_S_m->col(tie.node);
       seen.departure_m = seen.residual_S_m.norm();

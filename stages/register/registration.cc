@@ -31,7 +31,6 @@ constexpr int kRansacIterations = 50;
 // five sixths of it (two and a half of the default three cycles).
 constexpr int kJackknifeBlocks = 6;
 
-std::string Mm(double m) { return fmt::format("{:.2f}", 1e3 * m); }
 std::string Px(double px) { return fmt::format("{:.2f}", px); }
 std::string Percent(double fraction) { return fmt::format("{:.0f}%", 100 * fraction); }
 
