@@ -1,20 +1,12 @@
 #include "pipeline/run_statistics.h"
 
 #include <algorithm>
-#include <cmath>
 #include <cstdio>
 #include <map>
 
-namespace dg::pipeline {
+#include "sim/statistics.h"
 
-double Quantile(std::vector<double>& values, double q) {
-  if (values.empty()) return 0;
-  std::sort(values.begin(), values.end());
-  const double position = q * static_cast<double>(values.size() - 1);
-  const size_t below = static_cast<size_t>(std::floor(position));
-  const size_t above = std::min(below + 1, values.size() - 1);
-  return values[below] + (position - static_cast<double>(below)) * (values[above] - values[below]);
-}
+namespace dg::pipeline {
 
 RunStatistics Summarize(std::span<const StageTiming> timings, const std::vector<std::string>& stage_names,
                         std::int64_t dropped, double wall_s, double video_fps, bool complete) {
@@ -41,8 +33,8 @@ RunStatistics Summarize(std::span<const StageTiming> timings, const std::vector<
       double sum = 0;
       for (double v : d) sum += v;
       stage.mean_ms = sum / d.size();
-      stage.median_ms = Quantile(d, 0.5);
-      stage.p95_ms = Quantile(d, 0.95);
+      stage.median_ms = sim::Median(d);
+      stage.p95_ms = sim::Quantile(d, 0.95);
     }
     summary.stages.push_back(stage);
   }
@@ -52,8 +44,8 @@ RunStatistics Summarize(std::span<const StageTiming> timings, const std::vector<
     if (span.second > 0) latency.push_back((span.second - span.first) * 1e-6);
   }
   summary.frames = static_cast<std::int64_t>(latency.size());
-  summary.latency_median_ms = Quantile(latency, 0.5);
-  summary.latency_p95_ms = Quantile(latency, 0.95);
+  summary.latency_median_ms = sim::Median(latency);
+  summary.latency_p95_ms = sim::Quantile(latency, 0.95);
   summary.wall_s = wall_s > 0 ? wall_s : (last_ns > first_ns ? (last_ns - first_ns) * 1e-9 : 0);
   if (summary.wall_s > 0) {
     summary.frames_per_s = summary.frames / summary.wall_s;

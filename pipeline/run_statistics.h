@@ -36,8 +36,4 @@ struct RunStatistics {
 RunStatistics Summarize(std::span<const StageTiming> timings, const std::vector<std::string>& stage_names,
                         std::int64_t dropped, double wall_s, double video_fps, bool complete);
 
-// The q-quantile (0..1) of values by linear interpolation between order
-// statistics (NumPy's default); 0 for none. `values` is reordered.
-double Quantile(std::vector<double>& values, double q);
-
 }  // namespace dg::pipeline

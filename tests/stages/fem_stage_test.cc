@@ -15,6 +15,7 @@
 #include "io/gmsh_reader.h"
 #include "io/h5_file.h"
 #include "sim/error.h"
+#include "sim/statistics.h"
 #include "stages/constraints/constraint_mapper.h"
 #include "tools/phantom/phantom_generator.h"
 
@@ -124,11 +125,6 @@ struct ModeRun {
   Eigen::Matrix3Xd last_nodes_S_m;
 };
 
-double Median(std::vector<double> values) {
-  std::nth_element(values.begin(), values.begin() + values.size() / 2, values.end());
-  return values[values.size() / 2];
-}
-
 ModeRun RunMode(sim::SimulationMode mode, const Truth& truth, bool double_precision = false) {
   const sim::TetMesh mesh = io::ReadGmsh(TinyScene() + "/mesh.msh");
   const sim::Material material{3.0e3, 0.45, 1.0e3};
@@ -169,7 +165,7 @@ ModeRun RunMode(sim::SimulationMode mode, const Truth& truth, bool double_precis
     run.last_nodes_S_m = out.nodes_S_m;
   }
   std::printf("fem stage, %s mode, tiny phantom: internal-point error median %.3f mm, max %.3f mm over %d frames\n",
-              sim::ToString(mode).c_str(), Median(run.internal_error_mm),
+              sim::ToString(mode).c_str(), sim::Median(run.internal_error_mm),
               *std::max_element(run.internal_error_mm.begin(), run.internal_error_mm.end()), run.frames);
   return run;
 }
@@ -192,13 +188,13 @@ TEST_CASE("fem stage: surface, volume and combined modes on the tiny phantom", "
       frozen_mm.push_back((now - first).norm() * 1e3);
     }
   }
-  std::printf("fem stage, tiny phantom: frozen first frame's internal-point error median %.3f mm\n", Median(frozen_mm));
+  std::printf("fem stage, tiny phantom: frozen first frame's internal-point error median %.3f mm\n", sim::Median(frozen_mm));
   for (sim::SimulationMode mode :
        {sim::SimulationMode::kSurface, sim::SimulationMode::kVolume, sim::SimulationMode::kCombined}) {
     const ModeRun run = RunMode(mode, truth);
     REQUIRE(run.frames == truth.frames);
     REQUIRE(run.min_jacobian > 0.5);
-    if (mode != sim::SimulationMode::kSurface) REQUIRE(Median(run.internal_error_mm) < Median(frozen_mm));
+    if (mode != sim::SimulationMode::kSurface) REQUIRE(sim::Median(run.internal_error_mm) < sim::Median(frozen_mm));
     if (mode != sim::SimulationMode::kVolume) {
       // Surface mode: constrained nodes sit on their targets at frame times
       // (float: round-off of millimetre displacements).
@@ -225,7 +221,7 @@ TEST_CASE("fem stage: float and double precision agree", "[slow]") {
   // Float resolves 3e-9 m at the mesh's 5 cm: 0.1 um leaves room for the
   // rounding of 10,000 steps and is still a thousandth of the tracking's accuracy.
   CHECK(node_difference_m < 1e-7);
-  CHECK(Median(single.internal_error_mm) == Approx(Median(twice.internal_error_mm)).margin(1e-3));
+  CHECK(sim::Median(single.internal_error_mm) == Approx(sim::Median(twice.internal_error_mm)).margin(1e-3));
 }
 
 TEST_CASE("fem stage: bad input is an error with a reason", "[unit]") {

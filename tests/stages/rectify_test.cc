@@ -1,7 +1,6 @@
 // RectifyStage on the tiny phantom with its true calibration: true point
 // pairs land on one rectified row, agree with OpenCV's own point
 // rectification, and give the true depth from their disparity.
-#include <algorithm>
 #include <filesystem>
 
 #include <catch2/catch.hpp>
@@ -11,6 +10,7 @@
 #include "io/calibration.h"
 #include "io/h5_file.h"
 #include "sim/error.h"
+#include "sim/statistics.h"
 #include "stages/rectify.h"
 #include "tools/phantom/phantom_generator.h"
 
@@ -19,11 +19,6 @@ namespace {
 
 namespace fs = std::filesystem;
 using Eye = RectifyStage::Eye;
-
-double Median(std::vector<double> values) {
-  std::nth_element(values.begin(), values.begin() + values.size() / 2, values.end());
-  return values[values.size() / 2];
-}
 
 TEST_CASE("rectify: true point pairs share a rectified row on the phantom", "[stages][integration]") {
   const std::string dir = (fs::temp_directory_path() / "dg_rectify_test_tiny").string();
@@ -69,9 +64,9 @@ TEST_CASE("rectify: true point pairs share a rectified row on the phantom", "[st
   }
   INFO(row_errors.size() << " visible pairs");
   REQUIRE(row_errors.size() > 100);
-  CHECK(Median(row_errors) < 0.1);
-  CHECK(Median(opencv_errors) < 1e-3);
-  CHECK(Median(depth_errors) < 1e-6);
+  CHECK(sim::Median(row_errors) < 0.1);
+  CHECK(sim::Median(opencv_errors) < 1e-3);
+  CHECK(sim::Median(depth_errors) < 1e-6);
 
   cv::VideoCapture video(dir + "/video/left.avi");
   StereoFrame frame{0, 0, cv::Mat(), cv::Mat()};

@@ -2,7 +2,6 @@
 // simulating real-time factor against hand-made truth; the quick sweep on the
 // tiny phantom end to end, its CSV recomputed from the run logs through the
 // plain HDF5 C API.
-#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -12,6 +11,7 @@
 
 #include <catch2/catch.hpp>
 
+#include "sim/statistics.h"
 #include "tests/support/h5_plain.h"
 #include "tests/support/tiny_phantom.h"
 #include "tests/support/window_errors.h"
@@ -172,12 +172,6 @@ double DoubleAttribute(hid_t file, const char* name) {
   return value;
 }
 
-double Median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  const size_t n = v.size();
-  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
-
 Recomputed Recompute(const std::string& log, int window) {
   const hid_t file = H5Fopen(log.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
   REQUIRE(file >= 0);
@@ -204,7 +198,7 @@ Recomputed Recompute(const std::string& log, int window) {
     if (t_frame[k] == frame.back()) last_end = t_end[k];
   }
   r.simulating_realtime_factor = (frame.back() - frame.front()) / fps / ((last_end - first_end) * 1e-9);
-  for (const auto& [stage, ms] : durations) r.stage_median_ms[stage] = Median(ms);
+  for (const auto& [stage, ms] : durations) r.stage_median_ms[stage] = sim::Median(ms);
   H5Fclose(file);
   return r;
 }

@@ -6,6 +6,7 @@
 
 #include <unistd.h>
 
+#include "sim/statistics.h"
 #include "tools/bench/bench_json.h"
 #include "tools/bench/pipeline_bench.h"
 #include "tools/json_text.h"
@@ -18,9 +19,9 @@ struct Spread {
   double median = 0, low = 0, high = 0;
 };
 
-Spread SpreadOf(std::vector<double> values) {
-  std::sort(values.begin(), values.end());
-  return {pipeline::Quantile(values, 0.5), values.front(), values.back()};
+Spread SpreadOf(const std::vector<double>& values) {
+  const auto [low, high] = std::minmax_element(values.begin(), values.end());
+  return {sim::Median(values), *low, *high};
 }
 
 }  // namespace

@@ -13,6 +13,7 @@
 
 #include "pipeline/scene_graph.h"
 #include "sim/error.h"
+#include "sim/statistics.h"
 #include "tools/bench/bench_json.h"
 #include "tools/json_text.h"
 #include "tools/phantom/phantom_generator.h"
@@ -23,13 +24,6 @@ namespace dg::tools {
 namespace {
 
 namespace fs = std::filesystem;
-
-double Percentile(std::vector<double> values, double q) {
-  if (values.empty()) return 0;
-  const size_t k = std::min(values.size() - 1, static_cast<size_t>(q * values.size()));
-  std::nth_element(values.begin(), values.begin() + k, values.end());
-  return values[k];
-}
 
 // One frame through the front-end graph: its stages' times and the tracker's parts.
 struct FrameTimes {
@@ -71,7 +65,7 @@ class TimingSink final : public pipeline::GraphSink {
 double MedianOf(const std::vector<FrameTimes>& frames, const std::function<double(const FrameTimes&)>& part) {
   std::vector<double> values;
   for (const FrameTimes& f : frames) values.push_back(part(f));
-  return Percentile(values, 0.5);
+  return sim::Median(values);
 }
 
 VisionBenchRecord Measure(const std::string& scene, int threads, const VisionBenchOptions& options) {
@@ -98,8 +92,8 @@ VisionBenchRecord Measure(const std::string& scene, int threads, const VisionBen
   r.height = built.calibration.left.height;
   r.frames = static_cast<int>(frames.size());
   r.features = static_cast<int>(MedianOf(frames, [](const FrameTimes& f) { return f.features; }));
-  r.ms_median = Percentile(work_ms, 0.5);
-  r.ms_p95 = Percentile(work_ms, 0.95);
+  r.ms_median = sim::Median(work_ms);
+  r.ms_p95 = sim::Quantile(work_ms, 0.95);
   r.fps = result.wall_s > 0 ? double(r.frames) / result.wall_s : 0;
   r.capture_ms = MedianOf(frames, [](const FrameTimes& f) { return f.capture_ms; });
   r.rectify_ms = MedianOf(frames, [](const FrameTimes& f) { return f.rectify_ms; });

@@ -14,6 +14,7 @@
 #include "io/registration_file.h"
 #include "io/scene.h"
 #include "sim/error.h"
+#include "sim/statistics.h"
 #include "tools/job_program.h"
 #include "tools/json_text.h"
 #include "tools/report/line_plot.h"
@@ -78,13 +79,6 @@ std::string Fixed(double value, int digits = 2) {
   char text[32];
   std::snprintf(text, sizeof text, "%.*f", digits, value);
   return text;
-}
-
-double Median(std::vector<double> values) {
-  if (values.empty()) return 0;
-  std::sort(values.begin(), values.end());
-  const size_t n = values.size();
-  return n % 2 ? values[n / 2] : 0.5 * (values[n / 2 - 1] + values[n / 2]);
 }
 
 std::vector<const RunErrors*> RunsOfMode(const ProtocolResult& result, const std::string& mode) {
@@ -259,10 +253,10 @@ std::string WriteProtocolReport(const ProtocolResult& result, const std::string&
           Fixed(f.surface_max_mm) + " (" + Fixed(paper.surface_max) + ") | " + Fixed(f.surface_rms_mm) + " (" +
           Fixed(paper.surface_rms) + ") | " + Fixed(f.internal_avg_mm) + " (" + Fixed(paper.internal_avg) + ") | " +
           Fixed(f.internal_max_mm) + " (" + Fixed(paper.internal_max) + ") | " + Fixed(f.internal_rms_mm) + " (" +
-          Fixed(paper.internal_rms) + ") | " + Fixed(Median(factors)) + " |\n";
+          Fixed(paper.internal_rms) + ") | " + Fixed(sim::Median(factors)) + " |\n";
     csv1 += mode + "," + Fixed(f.surface_avg_mm, 6) + "," + Fixed(f.surface_max_mm, 6) + "," +
             Fixed(f.surface_rms_mm, 6) + "," + Fixed(f.internal_avg_mm, 6) + "," + Fixed(f.internal_max_mm, 6) + "," +
-            Fixed(f.internal_rms_mm, 6) + "," + Fixed(Median(factors), 4) + "," + std::to_string(f.frames) + "\n";
+            Fixed(f.internal_rms_mm, 6) + "," + Fixed(sim::Median(factors), 4) + "," + std::to_string(f.frames) + "\n";
   }
   md += "\nIn parentheses the paper's (CABG phantom, da Vinci video). Surface: the phantom's surface points the left "
         "camera sees, where the overlay draws them against where they are, in mm at their depth; internal: the "
@@ -313,7 +307,7 @@ void WriteProtocolJson(const ProtocolResult& result, const std::string& path) {
                   "\"internal_avg_mm\": %.6g, \"internal_max_mm\": %.6g, \"internal_rms_mm\": %.6g, "
                   "\"realtime_factor\": %.6g, \"frames\": %d}%s\n",
                   JsonQuoted(ProtocolModes()[m]).c_str(), f.surface_avg_mm, f.surface_max_mm, f.surface_rms_mm,
-                  f.internal_avg_mm, f.internal_max_mm, f.internal_rms_mm, Median(factors), f.frames,
+                  f.internal_avg_mm, f.internal_max_mm, f.internal_rms_mm, sim::Median(factors), f.frames,
                   m != ran.back() ? "," : "");
     json += line;
   }

@@ -7,8 +7,8 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "pipeline/run_statistics.h"
 #include "sim/error.h"
+#include "sim/statistics.h"
 
 namespace dg::tools {
 namespace {
@@ -59,7 +59,7 @@ PlotClipping WriteLinePlot(const std::vector<PlotSeries>& series, const PlotOpti
     first = std::isfinite(first) ? first : 0;
     last = first + 1;
   }
-  const double top_y = all_y.empty() ? 1.0 : pipeline::Quantile(all_y, options.y_quantile);
+  const double top_y = all_y.empty() ? 1.0 : sim::Quantile(all_y, options.y_quantile);
   const double y_max = top_y > 0 ? 1.1 * top_y : 1.0;
   PlotClipping clipping;
   clipping.y_axis_max = y_max;

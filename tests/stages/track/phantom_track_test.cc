@@ -9,6 +9,7 @@
 #include <opencv2/imgproc.hpp>
 #include <opencv2/videoio.hpp>
 
+#include "sim/statistics.h"
 #include "stages/track/feature_tracker.h"
 #include "stages/track/fiducial_tracker.h"
 #include "stages/track/marker_finder.h"
@@ -27,13 +28,6 @@ using testing::TruthTracks;
 // (2 s), so the video is as short as it can be: that and a margin for the
 // cycle-to-cycle period variation.
 constexpr double kDurationS = 2.2;
-
-double Percentile(std::vector<double> values, double q) {
-  REQUIRE(!values.empty());
-  const size_t k = static_cast<size_t>(q * (values.size() - 1));
-  std::nth_element(values.begin(), values.begin() + k, values.end());
-  return values[k];
-}
 
 // The truth's surface samples visible in one frame, joined into small
 // triangles (Delaunay in the left image): a material point inside one is the
@@ -142,7 +136,8 @@ void CheckSurfaceError(const TrackingRun& run) {
       error_mm.push_back(1e3 * (p.xyz_C_m - xyz).norm());
     }
   }
-  const double median = Percentile(error_mm, 0.5), p95 = Percentile(error_mm, 0.95);
+  REQUIRE(!error_mm.empty());
+  const double median = sim::Median(error_mm), p95 = sim::Quantile(error_mm, 0.95);
   WARN("frames " << run.frames.size() << ", points " << points << ", on the truth mesh " << error_mm.size()
                  << ", 3D error median " << median << " mm, p95 " << p95 << " mm");
   CHECK(run.frames.back().tracked >= 400);
@@ -172,9 +167,10 @@ void CheckDrift(const TrackingRun& run) {
     }
     if (visible) drift_px.push_back((end->second - truth).norm());
   }
-  const double median = Percentile(drift_px, 0.5);
+  REQUIRE(!drift_px.empty());
+  const double median = sim::Median(drift_px);
   WARN("tracks from frame 0 to " << last << ": " << drift_px.size() << ", drift median " << median << " px, p95 "
-                                 << Percentile(drift_px, 0.95) << " px");
+                                 << sim::Quantile(drift_px, 0.95) << " px");
   CHECK(drift_px.size() >= 100);
   CHECK(median <= 0.5);
 }
@@ -200,12 +196,13 @@ std::vector<cv::Point2f> FoundFiducials(const TrackingRun& run, const Triangulat
     start.emplace_back(static_cast<float>(uv_R.x()), static_cast<float>(uv_R.y()));
     fiducial->push_back(i);
   }
+  REQUIRE(!error_px.empty());
   WARN("markers found in the first frame: " << markers.size() << " for " << start.size()
-                                            << " visible fiducials, error median " << Percentile(error_px, 0.5)
-                                            << " px, max " << Percentile(error_px, 1.0) << " px");
+                                            << " visible fiducials, error median " << sim::Median(error_px)
+                                            << " px, max " << sim::Quantile(error_px, 1.0) << " px");
   CHECK(markers.size() == start.size());
-  CHECK(Percentile(error_px, 0.5) <= 0.3);
-  CHECK(Percentile(error_px, 1.0) <= 0.3);
+  CHECK(sim::Median(error_px) <= 0.3);
+  CHECK(sim::Quantile(error_px, 1.0) <= 0.3);
   return start;
 }
 
@@ -232,7 +229,8 @@ void CheckFiducials(const TrackingRun& run) {
         right_px.push_back((geometry.RightToDistorted(r) - fiducials.uv_right_px[f][i]).norm());
     }
   }
-  const double left = Percentile(left_px, 0.5), right = Percentile(right_px, 0.5);
+  REQUIRE((!left_px.empty() && !right_px.empty()));
+  const double left = sim::Median(left_px), right = sim::Median(right_px);
   WARN("fiducial observations " << left_px.size() << " left, " << right_px.size() << " right; median error " << left
                                 << " px left, " << right << " px right");
   CHECK(left_px.size() >= 0.8 * fiducials.uv_left_px[0].size() * run.scene.left_R.size());
