@@ -15,6 +15,7 @@
 #include <gmsh.h>
 #include <spdlog/spdlog.h>
 
+#include "io/elapsed_time.h"
 #include "io/gmsh_session.h"
 #include "sim/error.h"
 #include "sim/log.h"
@@ -146,7 +147,7 @@ sim::TetMesh MeshSolid(const std::string& where, double volume_m3, int target_te
     r.min_radius_ratio = std::min(r.min_radius_ratio, q);
     r.mean_radius_ratio += q / mesh.num_tets();
   }
-  r.wall_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  r.wall_ms = MsSince(start);
 
   spdlog::logger& log = Logger("io");
   log.info("meshed {}: {} nodes, {} tets (h = {:.3g} mm, {} passes, {} unused nodes dropped), "

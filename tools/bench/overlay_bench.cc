@@ -10,6 +10,7 @@
 
 #include <tbb/global_control.h>
 
+#include "io/elapsed_time.h"
 #include "sim/error.h"
 #include "stages/overlay/overlay_error.h"
 #include "tools/bench/bench_json.h"
@@ -32,7 +33,7 @@ OverlayBenchRecord Time(const std::string& name, int threads, int frames, int av
   for (int i = 0; i < frames; ++i) {
     const auto start = std::chrono::steady_clock::now();
     work(i % available);
-    ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count());
+    ms.push_back(io::MsSince(start));
   }
   OverlayBenchRecord r;
   r.overlay = name;

@@ -12,6 +12,7 @@
 #include <tbb/global_control.h>
 
 #include "io/calibration.h"
+#include "io/elapsed_time.h"
 #include "io/scene.h"
 #include "sim/error.h"
 #include "stages/register/fiducial_motion.h"
@@ -44,7 +45,7 @@ RegisterBenchRecord Measure(const BenchInput& input, int threads, const Register
   for (int k = 0; k < options.repeats; ++k) {
     const auto start = std::chrono::steady_clock::now();
     result = stages::RegisterScanToVideo(input.motion, input.calibration, input.truth.period_s, input.tracks, {});
-    ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count());
+    ms.push_back(io::MsSince(start));
   }
   cv::setNumThreads(opencv_threads);
   std::sort(ms.begin(), ms.end());

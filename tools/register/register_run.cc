@@ -10,6 +10,7 @@
 #include <fmt/format.h>
 
 #include "io/calibration.h"
+#include "io/elapsed_time.h"
 #include "io/registration_file.h"
 #include "io/scene.h"
 #include "sim/error.h"
@@ -21,10 +22,6 @@
 
 namespace dg::tools {
 namespace {
-
-double MsSince(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-}
 
 std::string StatsJson(const char* eye, const io::ReprojectionStats& s) {
   char text[512];
@@ -131,7 +128,7 @@ RegisterRunSummary RunRegister(const RegisterRunOptions& given) {
   io::StereoCalibration calibration;
   const stages::FiducialTracks tracks =
       TrackFiducialsInVideo(scene, first_uv, options.cycles * scan.period_s, &calibration);
-  summary.track_ms = MsSince(start);
+  summary.track_ms = io::MsSince(start);
   summary.frames = static_cast<int>(tracks.t_s.size());
   const double frame_s = summary.frames > 1 ? (tracks.t_s.back() - tracks.t_s.front()) / (summary.frames - 1) : 0;
   const double held_cycles = summary.frames > 1 ? (tracks.t_s.back() - tracks.t_s.front() + frame_s) / scan.period_s : 0;
@@ -144,7 +141,7 @@ RegisterRunSummary RunRegister(const RegisterRunOptions& given) {
   start = std::chrono::steady_clock::now();
   summary.result = stages::RegisterScanToVideo(motion, calibration, scan.period_s,
                                                tracks, options.solver);
-  summary.solve_ms = MsSince(start);
+  summary.solve_ms = io::MsSince(start);
   if (!scene.truth.empty()) {
     const RegistrationTruth truth = ReadRegistrationTruth(scene.truth);
     summary.error = CompareWithTruth(summary.result.registration, truth.T_C_S, truth.phase_shift_s);
