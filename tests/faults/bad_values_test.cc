@@ -1,5 +1,5 @@
-// Values a user gets wrong that used to pass unnoticed or end in an
-// "unexpected error": each is refused with what, where and a fix.
+// Values a user gets wrong, which would otherwise pass unnoticed or end in
+// an "unexpected error": each is refused with what, where and a fix.
 #include <unistd.h>
 
 #include <algorithm>
@@ -288,7 +288,7 @@ TEST_CASE("bad values: a CT grid in another unit or another frame than the mesh 
 }
 
 // A depth range given in millimetres (--near 30 --far 300) matches no
-// fiducial; the run used to register nothing and blame their tracking. The
+// fiducial, so the run would register nothing and blame their tracking. The
 // first stereo pair measures the fiducials' depth along the whole row, and
 // the run stops at frame 0 naming the depths, which agree with the truth's,
 // the unit, and a range in metres that holds them.
