@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cstdint>
 #include <filesystem>
 #include <fstream>
 #include <functional>
@@ -136,9 +137,11 @@ struct Written {
   double precision_mm;              // of the positions as written: float or double
 };
 
-Written Write(const std::string& kind, const Octahedron& octahedron) {
+// `test` names the file after the test case: CTest runs the cases as
+// processes side by side, and one truncates what another reads.
+Written Write(const std::string& kind, const Octahedron& octahedron, const std::string& test) {
   const vtkSmartPointer<vtkPolyData> polydata = octahedron.ToPolyData();
-  const std::string path = OutputPath("surface_mesh_reader_" + kind);
+  const std::string path = OutputPath("surface_mesh_reader_" + test + "_" + kind);
   const auto write = [&](auto& writer) {
     writer->SetInputData(polydata);
     writer->SetFileName(path.c_str());
@@ -190,7 +193,7 @@ TEST_CASE("surface_mesh_reader: files VTK's writers wrote, in mm and in m", "[io
   for (const std::string kind : {"ascii.ply", "binary.ply", "ascii.stl", "binary.stl", "ascii.vtk", "binary.vtk",
                                  "ascii.vtp", "appended.vtp"}) {
     INFO(kind);
-    const Written file = Write(kind, truth);
+    const Written file = Write(kind, truth, "formats");
     const SurfaceMesh in_m = ReadSurfaceMesh(file.name, {1e-3, ""});
     const SurfaceMesh in_mm = ReadSurfaceMesh(file.name, {1.0, ""});
     REQUIRE(in_m.num_triangles() == 8);
@@ -216,7 +219,7 @@ TEST_CASE("surface_mesh_reader: files VTK's writers wrote, in mm and in m", "[io
 
 // The extension names the format, in any case; an unknown one is refused with the accepted list.
 TEST_CASE("surface_mesh_reader: extensions", "[io][unit]") {
-  const Written stl = Write("binary.stl", Octahedron());
+  const Written stl = Write("binary.stl", Octahedron(), "extensions");
   const std::string upper = OutputPath("surface_mesh_reader_upper.STL");
   std::filesystem::copy_file(stl.name, upper, std::filesystem::copy_options::overwrite_existing);
   REQUIRE(IsSurfaceMeshFile(upper));
@@ -232,6 +235,27 @@ TEST_CASE("surface_mesh_reader: extensions", "[io][unit]") {
 }
 
 // Never an empty mesh: empty, garbled and cut-short files are errors naming the file.
+// A binary STL of one triangle, written byte by byte as the format says
+// (shorter than the 256 bytes VTK looks at to tell text from binary).
+TEST_CASE("surface_mesh_reader: a binary STL of one triangle", "[io][unit]") {
+  const std::string path = OutputPath("surface_mesh_reader_one_triangle.stl");
+  {
+    std::ofstream out(path, std::ios::binary);
+    const std::string header(80, ' ');
+    out.write(header.data(), header.size());
+    const std::uint32_t count = 1;
+    out.write(reinterpret_cast<const char*>(&count), sizeof count);
+    const float facet[12] = {0, 0, 1, 0, 0, 0, 10, 0, 0, 0, 20, 0};  // normal, then three corners (mm)
+    out.write(reinterpret_cast<const char*>(facet), sizeof facet);
+    const std::uint16_t attributes = 0;
+    out.write(reinterpret_cast<const char*>(&attributes), sizeof attributes);
+  }
+  const SurfaceMesh mesh = ReadSurfaceMesh(path, {1e-3, ""});
+  REQUIRE(mesh.num_triangles() == 1);
+  REQUIRE(mesh.num_vertices() == 3);
+  CHECK(mesh.vertices_m.colwise().norm().maxCoeff() == Approx(0.020));
+}
+
 TEST_CASE("surface_mesh_reader: empty, garbled and cut-short files", "[io][unit]") {
   for (const std::string extension : {".obj", ".ply", ".stl", ".vtk", ".vtp"}) {
     for (const std::string& contents : {std::string(), std::string("this is not a mesh\n1 2 3\n")}) {
@@ -243,7 +267,7 @@ TEST_CASE("surface_mesh_reader: empty, garbled and cut-short files", "[io][unit]
   }
   // Files cut to two thirds; a legacy VTK file of an unstructured grid.
   for (const std::string kind : {"binary.stl", "binary.vtk", "ascii.vtk", "appended.vtp"}) {
-    const Written file = Write(kind, Octahedron());
+    const Written file = Write(kind, Octahedron(), "cut_short");
     std::filesystem::resize_file(file.name, std::filesystem::file_size(file.name) * 2 / 3);
     INFO(kind);
     const Error error = ReadError(file.name);
