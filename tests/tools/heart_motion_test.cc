@@ -86,4 +86,25 @@ TEST_CASE("heart motion: periodic up to the stated variation", "[tools][unit]") 
   REQUIRE(some_differ);
 }
 
+// An early beat every N cycles: that cycle lasts kPrematurePeriodFactor of
+// its period and the next one is longer by the same time, so the beats after
+// the pair keep the regular rhythm's timing.
+TEST_CASE("heart motion: premature beats with a compensatory pause", "[tools][unit]") {
+  PhantomSpec regular;
+  regular.period_variation = 0;
+  PhantomSpec premature = regular;
+  premature.premature_beat_every = 3;
+  const HeartMotion a(regular, 6.0), b(premature, 6.0);
+  REQUIRE(b.cycles().size() >= 7);
+  const double T = regular.period_s(), early = PhantomSpec::kPrematurePeriodFactor * T;
+  for (size_t c = 0; c + 1 < b.cycles().size(); ++c) {
+    const double expected = c % 3 == 2 ? early : (c % 3 == 0 && c > 0 ? 2 * T - early : T);
+    CHECK(b.cycles()[c].period_s == Approx(expected).epsilon(1e-12));
+    CHECK(b.cycles()[c].amplitude == a.cycles()[c].amplitude);
+  }
+  CHECK(b.cycles()[4].start_s == Approx(a.cycles()[4].start_s).epsilon(1e-12));
+  premature.premature_beat_every = 1;
+  CHECK_THAT(premature.Validate(), Catch::Matchers::Contains("--premature-beat-every"));
+}
+
 }  // namespace dg::tools::phantom

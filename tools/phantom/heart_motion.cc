@@ -31,9 +31,17 @@ HeartMotion::HeartMotion(const PhantomSpec& spec, double horizon_s)
   std::mt19937_64 rng(spec.seed * 0x9E3779B97F4A7C15ULL + 1);
   std::normal_distribution<double> normal(0.0, 1.0);
   double start = 0;
-  while (start <= horizon_s) {
-    const double period = spec.period_s() * std::clamp(1 + spec.period_variation * normal(rng), 0.5, 1.5);
+  double carried_s = 0;  // a premature beat's shortfall, added to the pause after it
+  for (int cycle = 0; start <= horizon_s; ++cycle) {
+    double period = spec.period_s() * std::clamp(1 + spec.period_variation * normal(rng), 0.5, 1.5);
     const double amplitude = std::clamp(1 + spec.amplitude_variation * normal(rng), 0.5, 1.5);
+    period += carried_s;
+    carried_s = 0;
+    const int every = spec.premature_beat_every;
+    if (every > 0 && cycle % every == every - 1) {
+      carried_s = (1 - PhantomSpec::kPrematurePeriodFactor) * period;
+      period -= carried_s;
+    }
     cycles_.push_back({start, period, amplitude});
     start += period;
   }

@@ -25,7 +25,9 @@ struct MotionState {
 // A beat has activation sin^2(pi phi) and sway sin(2 pi phi) sin^2(pi phi):
 // both start and end at zero with zero slope, so cycles of different period and
 // amplitude join smoothly. Each cycle's period and amplitude are drawn from the
-// seed, so that no cyclic model of the nominal beat (the 4D CT) fits exactly.
+// seed, so that no cyclic model of the nominal beat (the 4D CT) fits exactly;
+// with premature_beat_every = N, every N-th cycle is cut short and the next
+// lengthened by the same time (PhantomSpec::kPrematurePeriodFactor).
 class HeartMotion {
  public:
   // Draws the cycles covering [0, horizon_s].

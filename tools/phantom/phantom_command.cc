@@ -8,6 +8,7 @@
 
 #include "sim/error.h"
 #include "tools/commands.h"
+#include "tools/phantom/beat_options.h"
 #include "tools/phantom/phantom_generator.h"
 #include "tools/phantom/phantom_spec.h"
 
@@ -22,6 +23,7 @@ struct PhantomArguments {
   int phases = 0, tets = 0, threads = 0, fiducials = 0;
   double baseline_m = 0, distance_m = 0, noise = -1, voxel_m = 0;
   std::string size, codec, ct_format;
+  phantom::BeatOptions beat;
   bool quiet = false;
 };
 
@@ -38,6 +40,7 @@ void RunPhantomCommand(const PhantomArguments& args) {
   if (args.distance_m > 0) spec.working_distance_m = args.distance_m;
   if (args.noise >= 0) spec.sensor_noise = args.noise;
   if (args.voxel_m > 0) spec.voxel_m = args.voxel_m;
+  args.beat.ApplyTo(&spec);
   if (!args.codec.empty()) spec.video_codec = args.codec;
   if (!args.ct_format.empty()) spec.ct_format = args.ct_format;
   if (!args.size.empty()) {
@@ -65,6 +68,7 @@ void AddPhantomCommand(CLI::App& app) {
       ->capture_default_str();
   command->add_option("--seed", args->seed, "Random seed: the same seed writes the same bytes")->capture_default_str();
   command->add_option("--heart-rate", args->heart_rate_bpm, "Heart rate, beats per minute (preset: 90)");
+  phantom::AddBeatOptions(command, &args->beat);
   command->add_option("--phases", args->phases, "4D CT phases over one cycle (preset: 20)");
   command->add_option("--tets", args->tets, "Target tetrahedron count of the mesh (preset: 8000)");
   command->add_option("--duration", args->duration_s, "Video length, seconds (preset: 3.5)");

@@ -16,7 +16,10 @@ std::string PhantomSpec::Validate() const {
     return "longitudinal shortening must lie in [0, 0.4)";
   }
   if (!(amplitude_variation >= 0 && amplitude_variation < 0.3 && period_variation >= 0 && period_variation < 0.3)) {
-    return "cycle variations must lie in [0, 0.3)";
+    return "cycle variations (--period-variation, --amplitude-variation) must lie in [0, 0.3)";
+  }
+  if (premature_beat_every < 0 || premature_beat_every == 1) {
+    return "--premature-beat-every must be 0 (none) or at least 2";
   }
   if (phases < 4) return "--phases must be at least 4";
   if (ct_format != "mhd" && ct_format != "dicom" && ct_format != "both") return "--ct-format must be mhd, dicom or both";

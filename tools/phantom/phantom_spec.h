@@ -28,6 +28,12 @@ struct PhantomSpec {
   Eigen::Vector2d sway_m{0.0015, 0.0010};
   double amplitude_variation = 0.06;    // standard deviation of each cycle's amplitude factor
   double period_variation = 0.04;       // standard deviation of each cycle's period factor
+  // An early beat every N cycles (0: none): a premature contraction that
+  // comes after kPrematurePeriodFactor of its period, followed by a
+  // compensatory pause (the next cycle longer by as much), as an ectopic
+  // beat interrupts a sinus rhythm.
+  int premature_beat_every = 0;
+  static constexpr double kPrematurePeriodFactor = 0.65;
 
   // Preoperative 4D CT of the nominal cycle.
   int phases = 20;

@@ -26,10 +26,11 @@ fs::path CacheDirectory() {
 
 std::string DefaultScenePath(bool progress) { return CachedPhantomScenePath("default", 1, progress); }
 
-std::string CachedPhantomScenePath(const std::string& preset, std::uint64_t seed, bool progress) {
+std::string CachedPhantomScenePath(const std::string& preset, std::uint64_t seed, bool progress,
+                                   const phantom::BeatOptions& beat) {
   // The generator's version is part of the name: a newer phantom is generated anew.
   const fs::path scene_dir =
-      CacheDirectory() / ("phantom-" + preset + "-seed" + std::to_string(seed) + "-" DG_VERSION);
+      CacheDirectory() / ("phantom-" + preset + "-seed" + std::to_string(seed) + beat.Tag() + "-" DG_VERSION);
   const fs::path done_mark = scene_dir / ".complete";
   if (fs::exists(done_mark)) return (scene_dir / "scene.yaml").string();
 
@@ -41,6 +42,7 @@ std::string CachedPhantomScenePath(const std::string& preset, std::uint64_t seed
   fs::remove_all(partial, error);
   phantom::PhantomSpec spec = phantom::PresetSpec(preset);
   spec.seed = seed;
+  beat.ApplyTo(&spec);
   phantom::GeneratePhantom(spec, partial.string(), progress);
   fs::rename(partial, scene_dir, error);
   if (error) {

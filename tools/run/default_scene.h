@@ -3,6 +3,8 @@
 #include <cstdint>
 #include <string>
 
+#include "tools/phantom/beat_options.h"
+
 namespace dg::tools {
 
 // The built-in default scene of `dynaguide run`: the default phantom,
@@ -13,9 +15,10 @@ namespace dg::tools {
 // @returns the scene file's path. @throws dg::Error when the cache cannot be written.
 std::string DefaultScenePath(bool progress);
 
-// A phantom of a preset and seed, cached the same way (the default scene is
-// the default preset's seed 1). @throws dg::Error as DefaultScenePath, or for
-// an unknown preset.
-std::string CachedPhantomScenePath(const std::string& preset, std::uint64_t seed, bool progress);
+// A phantom of a preset, seed and beat, cached the same way (the default
+// scene is the default preset's seed 1 with the preset's beat).
+// @throws dg::Error as DefaultScenePath, or for an unknown preset or an invalid beat.
+std::string CachedPhantomScenePath(const std::string& preset, std::uint64_t seed, bool progress,
+                                   const phantom::BeatOptions& beat = {});
 
 }  // namespace dg::tools
