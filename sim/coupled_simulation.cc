@@ -40,7 +40,11 @@ template <typename T>
 CoupledSimulation<T>::CoupledSimulation(std::shared_ptr<const TledModel<T>> model,
                                         std::shared_ptr<const CyclicMotionModel> motion, std::vector<int> fixed_nodes,
                                         const CoupledOptions& options, const StabilityReport* stability)
-    : model_(std::move(model)), motion_(std::move(motion)), options_(options), fixed_nodes_(std::move(fixed_nodes)) {
+    : model_(std::move(model)),
+      motion_(std::move(motion)),
+      options_(options),
+      fixed_nodes_(std::move(fixed_nodes)),
+      clock_(options.phase_at_start, motion_ ? options.solver.dt_s / motion_->period_s() : 0.0) {
   if (const std::string problem = options_.Validate(); !problem.empty()) {
     throw Error("invalid simulation options: " + problem, "coupled simulation options", "correct the option");
   }
@@ -128,7 +132,19 @@ void CoupledSimulation<T>::SetConstrainedNodes(std::vector<int> nodes) {
 template <typename T>
 void CoupledSimulation<T>::MotionAtStep(long long step, std::span<T> out) const {
   DG_CHECK(motion_ != nullptr);
-  motion_->Evaluate<T>(motion_->PhaseAt(double(step) * options_.solver.dt_s, options_.phase_at_start), out);
+  motion_->Evaluate<T>(phase_clock().PhaseAt(step), out);
+}
+
+template <typename T>
+void CoupledSimulation<T>::SteerPhase(double phase, double rate_hz, double settle_s) {
+  const double dt = options_.solver.dt_s;
+  DG_CHECK(settle_s >= dt && rate_hz > 0);
+  PhaseClock& clock = inverse_ ? inverse_->phase_clock() : clock_;
+  long long from = steps_ + std::llround(kSteerLead_s / dt);
+  if (inverse_) from = std::max(from, inverse_->newest_motion_step());
+  const long long at = from + std::llround(settle_s / dt);
+  const double rate_per_step = rate_hz * options_.solver.dt_s;
+  clock.Steer(from, at, phase + rate_per_step * double(at - steps_), rate_per_step);
 }
 
 template <typename T>

@@ -10,6 +10,7 @@
 #include "sim/inverse_dynamics.h"
 #include "sim/inverse_interval.h"
 #include "sim/motion_model.h"
+#include "sim/phase_clock.h"
 #include "sim/tled_solver.h"
 
 namespace dg::sim {
@@ -83,6 +84,22 @@ class CoupledSimulation {
   // @pre a motion model was given.
   void MotionAtStep(long long step, std::span<T> out) const;
 
+  // A live estimate of the heart's phase (docs/phase.md): at the current step
+  // the phase is `phase` (in [0, 1), or unwrapped) and advances at rate_hz
+  // cycles per second. The motion's phase is steered onto that line over
+  // settle_s, starting kSteerLead_s ahead of the current step (or at the
+  // newest step the inverse side has evaluated, if that is later: its phase
+  // is kept), and runs on at rate_hz after. The lead is a time, not a count
+  // of steps, so that the phase the simulation sees does not depend on dt.
+  // Without an inverse side only MotionAtStep follows it.
+  // @pre settle_s >= dt, rate_hz > 0.
+  void SteerPhase(double phase, double rate_hz, double settle_s);
+  // More than the inverse side's look-ahead at the default interval and dt (about 5 ms).
+  static constexpr double kSteerLead_s = 0.010;
+  // The motion's phase at step n (unwrapped), and its rate (cycles per second) beyond the last steering.
+  double PhaseAtStep(long long step) const { return phase_clock().PhaseAt(step); }
+  double phase_rate_hz() const { return phase_clock().rate_per_step() / options_.solver.dt_s; }
+
   const TledSolver<T>& solver() const { return *solver_; }
   std::span<const T> displacement() const { return solver_->displacement(); }
   long long steps_taken() const { return steps_; }
@@ -106,6 +123,10 @@ class CoupledSimulation {
   std::shared_ptr<StepTeam> team_;  // every solver built steps on it
   std::unique_ptr<TledSolver<T>> solver_;
   long long steps_ = 0;
+  // The motion's phase by step: the inverse side's clock when it has one
+  // (steered through it), else this one.
+  PhaseClock clock_;
+  const PhaseClock& phase_clock() const { return inverse_ ? inverse_->phase_clock() : clock_; }
 
   // Its newest level at step n: n / k + 1 at the start of an interval, n / k + 2 within one.
   std::unique_ptr<InverseSimulation<T>> inverse_;

@@ -101,7 +101,7 @@ InverseSimulation<T>::InverseSimulation(std::shared_ptr<const TledModel<T>> mode
     : model_(std::move(model)),
       motion_(motion->Reordered(model_->mesh_nodes_in_layout_order())),
       dt_s_(options.dt_s),
-      phase_at_start_(phase_at_start),
+      clock_(phase_at_start, options.dt_s / motion->period_s()),
       interval_steps_(interval_steps) {
   DG_CHECK(interval_steps_ >= 1);
   if (const std::string problem = options.Validate(); !problem.empty()) {

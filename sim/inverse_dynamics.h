@@ -6,6 +6,7 @@
 
 #include "sim/aligned_vector.h"
 #include "sim/motion_model.h"
+#include "sim/phase_clock.h"
 #include "sim/tled_model.h"
 #include "sim/tled_solver.h"
 
@@ -103,6 +104,12 @@ class InverseSimulation {
   // @throws dg::Error as Finish() does.
   void Advance();
 
+  // The motion model's phase by step; steering it changes only steps after newest_motion_step().
+  PhaseClock& phase_clock() { return clock_; }
+  const PhaseClock& phase_clock() const { return clock_; }
+  // The last step whose motion a level has evaluated.
+  long long newest_motion_step() const { return pending_level_ * interval_steps_ + 1; }
+
   int element_chunks() const { return static_cast<int>(chunk_min_J_.size()); }
   int node_chunks() const { return static_cast<int>(chunk_node_count_); }
   void ElementChunk(int chunk);
@@ -120,11 +127,12 @@ class InverseSimulation {
   friend class CoupledSimulation;
 
   int Slot(long long level) const { return static_cast<int>(((level % 3) + 3) % 3); }
-  double PhaseOfStep(long long step) const { return motion_.PhaseAt(double(step) * dt_s_, phase_at_start_); }
+  double PhaseOfStep(long long step) const { return clock_.PhaseAt(step); }
 
   std::shared_ptr<const TledModel<T>> model_;
   CyclicMotionModel motion_;  // in the model's layout order
-  double dt_s_ = 0, phase_at_start_ = 0;
+  double dt_s_ = 0;
+  PhaseClock clock_;
   int interval_steps_ = 1;
   std::vector<T> inertia_gain_;   // per node: M_a / (A dt^2)
   std::vector<T> gravity_force_;  // per node and axis: M_a g

@@ -67,13 +67,13 @@ const sim::StabilityReport& FemStage::stability() const {
                     simulation_);
 }
 
-FemFrameOutput FemStage::Process(int frame, const NodeTargets& targets) {
+FemFrameOutput FemStage::Process(int frame, const NodeTargets& targets, const PhaseEstimate* phase) {
   FemFrameOutput output;
-  Process(frame, targets, &output);
+  Process(frame, targets, &output, phase);
   return output;
 }
 
-void FemStage::Process(int frame, const NodeTargets& targets, FemFrameOutput* into) {
+void FemStage::Process(int frame, const NodeTargets& targets, FemFrameOutput* into, const PhaseEstimate* phase) {
   if (frame <= last_frame_) {
     throw Error("frame " + std::to_string(frame) + " comes after frame " + std::to_string(last_frame_),
                 "FEM stage", "feed frames in increasing order (a serial node behind a sequencer)");
@@ -85,15 +85,22 @@ void FemStage::Process(int frame, const NodeTargets& targets, FemFrameOutput* in
   }
   const int from_frame = std::max(last_frame_, 0);  // the simulation starts at frame 0's time
   last_frame_ = frame;
-  std::visit([&](auto& simulation) { Step(*simulation, from_frame, frame, targets, into); }, simulation_);
+  std::visit([&](auto& simulation) { Step(*simulation, from_frame, frame, targets, phase, into); }, simulation_);
 }
 
 long long FemStage::StepOf(int frame) const { return std::llround(frame / (options_.fps * options_.dt_s)); }
 
 template <typename T>
 void FemStage::Step(sim::CoupledSimulation<T>& simulation, int from_frame, int frame, const NodeTargets& targets,
-                    FemFrameOutput* into) {
+                    const PhaseEstimate* phase, FemFrameOutput* into) {
   const long long substeps = StepOf(frame) - simulation.steps_taken();
+  if (phase && phase->valid) {
+    const double frame_s = StepOf(frame) * options_.dt_s;
+    // The estimate is of the frame's time; the simulation is still at the previous frame's.
+    simulation.SteerPhase(phase->phase - phase->rate_hz * (frame_s - simulation.time_s()), phase->rate_hz,
+                          std::max(options_.dt_s, 1 / options_.fps));
+    gap_.FollowPhase(frame_s, phase->phase, phase->rate_hz);
+  }
   // In surface mode nothing but the constraints drives the mesh; in volume
   // mode the tracked surface is only measured against, not imposed.
   const bool constrain = options_.mode != sim::SimulationMode::kVolume;
@@ -148,6 +155,9 @@ void FemStage::Step(sim::CoupledSimulation<T>& simulation, int from_frame, int f
   }
   if (!targets.nodes.empty()) record.constraint_residual_rms_mm = std::sqrt(sum_sq / targets.nodes.size()) * 1e3;
   record.dt_over_dt_critical = options_.dt_s / simulation.stability().dt_critical_s;
+  const double motion_phase = simulation.PhaseAtStep(simulation.steps_taken());
+  record.motion_phase = motion_phase - std::floor(motion_phase);
+  record.motion_rate_hz = simulation.phase_rate_hz();
 }
 
 std::vector<int> SampledNodeIds(int nodes, int samples) {

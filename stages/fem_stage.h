@@ -12,6 +12,7 @@
 #include "sim/tet_mesh.h"
 #include "stages/constraints/constraint_mapper.h"
 #include "stages/constraints/gap_targets.h"
+#include "stages/register/phase_estimate.h"
 
 namespace dg::stages {
 
@@ -32,6 +33,9 @@ struct FemFrameRecord {
   // the forces-only model's miss of the tracked surface in volume mode.
   double constraint_residual_rms_mm = 0, constraint_residual_max_mm = 0;
   double dt_over_dt_critical = 0;          // stability margin
+  // The phase of the motion driving the inverse simulation at this step, in
+  // [0, 1), and its rate (cycles per second): the live estimate, steered (docs/phase.md).
+  double motion_phase = 0, motion_rate_hz = 0;
 };
 
 struct FemFrameOutput {
@@ -82,11 +86,15 @@ class FemStage {
   // phase, zero without one): what ConstraintMapper needs.
   Eigen::Matrix3Xd first_displacement_S_m() const;
 
+  // `phase` (optional): the heart's phase at this frame as the video shows it;
+  // the motion driving the inverse simulation and predicting the constraints
+  // is steered onto it over the next frame period (docs/phase.md). Without
+  // it, the phase runs on from phase_at_first_frame at the last rate.
   // @pre frames increase. @throws dg::Error for a frame earlier than the last
   // one, a target on a fixed node, or a simulation failure (inversion, blow-up).
-  FemFrameOutput Process(int frame, const NodeTargets& targets);
+  FemFrameOutput Process(int frame, const NodeTargets& targets, const PhaseEstimate* phase = nullptr);
   // The same into `output`, reusing its storage.
-  void Process(int frame, const NodeTargets& targets, FemFrameOutput* output);
+  void Process(int frame, const NodeTargets& targets, FemFrameOutput* output, const PhaseEstimate* phase = nullptr);
 
   const std::vector<int>& sampled_nodes() const { return sampled_nodes_; }
   const sim::StabilityReport& stability() const;
@@ -94,7 +102,7 @@ class FemStage {
  private:
   template <typename T>
   void Step(sim::CoupledSimulation<T>& simulation, int from_frame, int frame, const NodeTargets& targets,
-            FemFrameOutput* into);
+            const PhaseEstimate* phase, FemFrameOutput* into);
   long long StepOf(int frame) const;
 
   Options options_;

@@ -8,10 +8,19 @@
 namespace dg::stages {
 
 GapTargets::GapTargets(std::shared_ptr<const sim::CyclicMotionModel> predictor, double phase_at_zero)
-    : predictor_(std::move(predictor)), phase_at_zero_(phase_at_zero) {}
+    : predictor_(std::move(predictor)),
+      anchor_phase_(phase_at_zero),
+      rate_hz_(predictor_ ? 1 / predictor_->period_s() : 0) {}
+
+void GapTargets::FollowPhase(double t_s, double phase, double rate_hz) {
+  anchor_t_s_ = t_s;
+  anchor_phase_ = phase;
+  rate_hz_ = rate_hz;
+}
 
 void GapTargets::Predict(int node, double t_s, double* out) const {
-  predictor_->Evaluate<double>(predictor_->PhaseAt(t_s, phase_at_zero_), 3 * node, std::span<double>(out, 3));
+  const double phase = anchor_phase_ + rate_hz_ * (t_s - anchor_t_s_);
+  predictor_->Evaluate<double>(phase, 3 * node, std::span<double>(out, 3));
 }
 
 void GapTargets::ObserveSpeed(const NodeTargets& targets, double elapsed_s) {

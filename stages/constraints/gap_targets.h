@@ -44,6 +44,10 @@ class GapTargets {
   // the targets given to Begin()).
   void At(double t_s, std::vector<double>* out) const;
 
+  // From now on the predictor's phase at time t is phase + rate_hz (t - t_s):
+  // the heart's phase as the video shows it (docs/phase.md).
+  void FollowPhase(double t_s, double phase, double rate_hz);
+
   bool predicts() const { return predictor_ != nullptr; }
   // Without a predictor: the speed bound so far (m/s).
   double speed_limit_m_per_s() const { return speed_limit_m_per_s_; }
@@ -55,7 +59,8 @@ class GapTargets {
   void ObserveSpeed(const NodeTargets& targets, double elapsed_s);
 
   std::shared_ptr<const sim::CyclicMotionModel> predictor_;
-  double phase_at_zero_;
+  // The predictor's phase is anchor_phase_ + rate_hz_ (t - anchor_t_s_).
+  double anchor_t_s_ = 0, anchor_phase_ = 0, rate_hz_ = 0;
   double from_s_ = 0, to_s_ = 0;
   std::vector<int> nodes_;
   std::vector<double> start_m_, target_m_;

@@ -46,6 +46,15 @@ Eigen::Vector3d Triangulator::Triangulate(const Eigen::Vector2d& uv_left_R_px, d
   return rectification_.R1.transpose() * (X.head<3>() / X.w());
 }
 
+Eigen::Vector3d Triangulator::ToRectifiedDisparity(const Eigen::Vector3d& X_C_m) const {
+  const Eigen::Vector3d X_R = rectification_.R1 * X_C_m;
+  const Eigen::Vector2d left = PixelOf(rectification_.P1, X_R);
+  // The right rectified camera sees X_R shifted by its baseline: P2 = [K | K t].
+  const auto& P2 = rectification_.P2;
+  const double u_right = (P2(0, 0) * X_R.x() + P2(0, 2) * X_R.z() + P2(0, 3)) / X_R.z();
+  return {left.x(), left.y(), left.x() - u_right};
+}
+
 Eigen::Vector2d Triangulator::LeftToDistorted(const Eigen::Vector2d& uv_R_px) const {
   return Project(left_, rectification_.R1.transpose() * RayOf(rectification_.P1, uv_R_px));
 }

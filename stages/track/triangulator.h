@@ -19,6 +19,9 @@ class Triangulator {
   // its disparity (u_left - u_right): [X Y Z W]^T = Q [u v d 1]^T in R, then
   // X_C = R1^T X_R. @pre disparity_px > 0 (a point in front of both cameras).
   Eigen::Vector3d Triangulate(const Eigen::Vector2d& uv_left_R_px, double disparity_px) const;
+  // The inverse: the left rectified pixel and the disparity of a point in C,
+  // as (u, v, d). @pre the point lies in front of the cameras.
+  Eigen::Vector3d ToRectifiedDisparity(const Eigen::Vector3d& X_C_m) const;
 
   // Original (distorted) pixel of a rectified pixel, through the ray it sees.
   Eigen::Vector2d LeftToDistorted(const Eigen::Vector2d& uv_R_px) const;
