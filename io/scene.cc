@@ -177,6 +177,7 @@ Scene::Registration ReadRegistration(const YamlMap& map, const fs::path& directo
     throw Error("'cycles' must be at least 1", map.Where("cycles"), "register over one or more whole cardiac cycles");
   }
   if (map.Has("fiducials_uv")) registration.fiducials_uv = File(map, "fiducials_uv", directory);
+  registration.live_phase = map.Boolean("live_phase", registration.live_phase);
   map.RejectUnknown();
   return registration;
 }

@@ -80,6 +80,11 @@ struct Scene {
     std::string file;
     double cycles = 3;
     std::string fiducials_uv;
+    // After the registration, keep following the fiducials and estimate the
+    // heart's phase every frame (docs/phase.md); false: the registration's
+    // constant phase shift for the whole run. Needs a registration from the
+    // run's video (not a file).
+    bool live_phase = true;
   };
   std::optional<Registration> registration;
 

@@ -9,6 +9,7 @@
 
 #include "stages/constraints/constraint_mapper.h"
 #include "stages/rectify.h"
+#include "stages/register/phase_estimate.h"
 #include "stages/stereo_frame.h"
 #include "stages/track/feature_tracker.h"
 
@@ -61,6 +62,9 @@ struct FramePacket {
   // The solve behind `registration` when the run registered (its fiducial
   // assignment and search, for the log); null when the scene gave it.
   std::shared_ptr<const stages::RegistrationResult> registration_solve;
+  // The heart's phase at this frame as the video shows it (docs/phase.md):
+  // valid from the registration on when the register stage estimates it live.
+  stages::PhaseEstimate phase;
   stages::NodeTargets targets;  // constraint mapping's, for the FEM stage
   // The FEM stage's node positions and record; null before the simulation
   // starts (at the first registered frame). Shared with the overlays, which
@@ -79,6 +83,7 @@ struct FramePacket {
     timing_count = 0;
     registration.reset();
     registration_solve.reset();
+    phase = {};
     simulation.reset();
   }
 };

@@ -44,11 +44,11 @@ MeshSeriesSink::MeshSeriesSink(const std::string& path, std::shared_ptr<const Si
 
 MeshSeriesSink::~MeshSeriesSink() = default;
 
-void MeshSeriesSink::RecoverForces(double t_s) {
+void MeshSeriesSink::RecoverForces(double phase, double rate_hz) {
   const sim::CyclicMotionModel& motion = *setup_->motion;
   const double dt_s = setup_->options.dt_s;
   for (int level = 0; level < 3; ++level) {
-    motion.Evaluate<double>(motion.PhaseAt(t_s + (level - 1) * dt_s, first_phase_), std::span<double>(motion_m_[level]));
+    motion.Evaluate<double>(phase + (level - 1) * dt_s * rate_hz, std::span<double>(motion_m_[level]));
   }
   // ForceRecovery runs its loops under tbb::parallel_for; an arena of one slot
   // keeps them on this thread, off the workers the graph's stages run on.
@@ -58,19 +58,13 @@ void MeshSeriesSink::RecoverForces(double t_s) {
 
 void MeshSeriesSink::Consume(const FramePacket& packet) {
   if (!packet.simulation) return;
-  if (!started_) {
-    // The FEM stage's clock: its time 0 is this frame, at this phase (FemAdapter).
-    DG_CHECK(packet.registration);
-    first_phase_ = setup_->PhaseAt(*packet.registration, packet.t_s);
-    started_ = true;
-  }
   const stages::FemFrameOutput& simulation = *packet.simulation;
   displacement_m_ = simulation.nodes_S_m - setup_->mesh.X_m;
   Eigen::MatrixXd& tied = fields_.point_data[0].second;
   tied.setZero();
   for (int node : packet.targets.nodes) tied(0, node) = 1;
   if (recovery_) {
-    RecoverForces(simulation.record.time_s);
+    RecoverForces(simulation.record.motion_phase, simulation.record.motion_rate_hz);
     fields_.point_data[1].second = Eigen::Map<const Eigen::MatrixXd>(forces_n_.data(), 3, setup_->mesh.num_nodes());
   }
   writer_.Append(packet.t_s, displacement_m_, fields_);

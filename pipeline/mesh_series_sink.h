@@ -61,14 +61,12 @@ class MeshSeriesSink {
   const std::string& h5_path() const { return writer_.h5_path(); }
 
  private:
-  // The recovered forces at simulation time t_s (3 x nodes) into forces_n_.
-  void RecoverForces(double t_s);
+  // The recovered forces (3 x nodes) into forces_n_, at the motion's phase and rate of the frame's step.
+  void RecoverForces(double phase, double rate_hz);
 
   std::shared_ptr<const SimulationSetup> setup_;
   io::XdmfTimeSeriesWriter writer_;
   std::unique_ptr<sim::ForceRecovery<double>> recovery_;  // null without a motion model
-  double first_phase_ = 0;  // the motion model's phase at the first simulated frame
-  bool started_ = false;
   // Reused from frame to frame.
   Eigen::Matrix3Xd displacement_m_;
   io::MeshFields fields_;

@@ -58,7 +58,8 @@ std::unique_ptr<PacketStage> MakeRegisterStage(const io::Scene& scene, const io:
   stages::RegistrationStage::Options options;
   options.cycles = scene.registration->cycles;
   return std::make_unique<RegisterAdapter>(options, std::move(motion), calibration, scene.preoperative->period_s,
-                                           first, settings.near_m, settings.far_m);
+                                           first, settings.near_m, settings.far_m,
+                                           scene.registration->live_phase);
 }
 
 // The scene's own registration places the tissue before a frame is read: the
@@ -122,6 +123,7 @@ SceneGraph BuildSceneGraph(const io::Scene& scene, const GraphOptions& options, 
           std::make_shared<const io::Registration>(io::ReadRegistrationYaml(with_defaults.registration->file));
     } else {
       stages.push_back(MakeRegisterStage(with_defaults, built.calibration, settings));
+      built.live_phase = with_defaults.registration->live_phase;
     }
   }
   OverlayEyes eyes{built.calibration, nullptr, nullptr};

@@ -35,6 +35,7 @@ struct SceneGraph {
   io::StereoCalibration calibration;
   // The scene's own registration (registration.file), or null when the graph registers.
   std::shared_ptr<const io::Registration> given_registration;
+  bool live_phase = false;  // the register stage estimates the heart's phase every frame (packet.phase)
   // What the simulation stages run on; null when the scene has no simulation.
   std::shared_ptr<const SimulationSetup> simulation;
   // The overlays' side branches, in drawing order (empty without overlays).

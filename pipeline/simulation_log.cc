@@ -29,6 +29,7 @@ SimulationLog::SimulationLog(io::RunLog& log, std::shared_ptr<const SimulationSe
                                  {"residual_rms_mm", H5Type::kDouble},
                                  {"residual_max_mm", H5Type::kDouble},
                                  {"dt_over_dt_critical", H5Type::kDouble},
+                                 {"motion_phase", H5Type::kDouble},
                                  {"sampled_nodes_S_m", H5Type::kFloat, std::max<std::size_t>(1, 3 * sampled_)}});
   const std::vector<std::int32_t> ids32(ids.begin(), ids.end());
   log_.file().Write("/sim/sampled_node_ids", ids32.data(), {ids32.size()});
@@ -53,7 +54,7 @@ void SimulationLog::Consume(const FramePacket& packet) {
                    std::int32_t{r.frames_bridged}, r.kinetic_energy_j,
                    r.min_jacobian, std::int32_t{r.constrained_nodes},
                    std::int32_t{r.gated_features}, r.constraint_residual_rms_mm,
-                   r.constraint_residual_max_mm, r.dt_over_dt_critical, sampled});
+                   r.constraint_residual_max_mm, r.dt_over_dt_critical, r.motion_phase, sampled});
 }
 
 }  // namespace dg::pipeline

@@ -20,7 +20,9 @@ namespace dg::pipeline {
 //                  frames dropped since the last simulated frame),
 //                  kinetic_energy_j, min_jacobian, constrained_nodes,
 //                  gated_features (tied features left out as outliers),
-//                  residual_rms_mm, residual_max_mm, dt_over_dt_critical and
+//                  residual_rms_mm, residual_max_mm, dt_over_dt_critical,
+//                  motion_phase (the phase of the motion driving the inverse
+//                  simulation at the frame's step, docs/phase.md) and
 //                  sampled_nodes_S_m (3 per sampled node, scan frame, metres);
 //                  /sim/sampled_node_ids names the sampled nodes.
 class SimulationLog {

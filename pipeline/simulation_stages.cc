@@ -28,14 +28,17 @@ const std::vector<int>& NodeSet(const sim::TetMesh& mesh, const std::string& nam
 
 RegisterAdapter::RegisterAdapter(const stages::RegistrationStage::Options& options, stages::FiducialMotion motion,
                                  const io::StereoCalibration& calibration, double period_s,
-                                 const std::vector<Eigen::Vector2d>& first_uv_left_px, double near_m, double far_m)
+                                 const std::vector<Eigen::Vector2d>& first_uv_left_px, double near_m, double far_m,
+                                 bool live_phase)
     : calibration_(calibration),
       near_m_(near_m),
       far_m_(far_m),
       first_phase_fiducials_S_m_(motion.positions_S_m.empty() ? Eigen::Matrix3Xd() : motion.positions_S_m.front()),
       geometry_(calibration),
       tracker_(stages::StartFiducialTracker(geometry_, first_uv_left_px, near_m, far_m)),
-      stage_(options, std::move(motion), calibration, period_s) {
+      stage_(options, motion, calibration, period_s) {
+  if (live_phase) phase_ = std::make_unique<stages::PhaseTracker>(stages::PhaseTracker::Options{}, std::move(motion),
+                                                                  geometry_, period_s);
   for (const Eigen::Vector2d& uv : first_uv_left_px) {
     Eigen::Vector2d uv_R(-1, -1);
     geometry_.LeftToRectified(uv, &uv_R);  // StartFiducialTracker refused a pixel outside the field
@@ -71,34 +74,55 @@ void RegisterAdapter::CheckFirstFrameDepths(const FramePacket& packet,
 }
 
 void RegisterAdapter::Process(FramePacket& packet) {
-  if (!result_) {
+  if (!result_ || phase_) {
     const std::vector<stages::FiducialObservation> seen =
         tracker_.Process(packet.rectified.left, packet.rectified.right);
-    if (first_frame_) CheckFirstFrameDepths(packet, seen);
-    first_frame_ = false;
-    std::vector<stages::FiducialSighting> sightings;
-    for (const stages::FiducialObservation& observation : seen) {
-      sightings.push_back(stages::SightingFromRectified(observation, geometry_));
-    }
-    if (stage_.Process(packet.t_s, std::move(sightings))) {
-      solve_ = std::make_shared<const stages::RegistrationResult>(stage_.Solve());
-      result_ = std::shared_ptr<const io::Registration>(solve_, &solve_->registration);
-      Logger("register").info("registered at frame {}: phase shift {:.2f} ms, residual {:.3f} / {:.3f} px",
-                               packet.index, 1e3 * result_->phase_shift_s, result_->left.mean_px,
-                               result_->right.mean_px);
-      // The pose places the scan: its fiducials' depths, before any frame is simulated with it.
-      CheckWorkingDistance(DepthsInCamera(result_->T_C_S, first_phase_fiducials_S_m_),
-                           "the scan's fiducials, placed by the registration,", calibration_, near_m_, far_m_,
-                           "stage 'register', frame " + std::to_string(packet.index),
-                           "check the scan's fiducials are in metres (scan.h5 /phases/fiducials_S_m)");
-    }
+    if (phase_) ObservePhase(packet.t_s, seen);
+    if (!result_) Register(packet, seen);
   }
   packet.registration = result_;
   packet.registration_solve = solve_;
+  if (phase_ && result_) {
+    if (!phase_->started()) {
+      phase_->Start(Eigen::Isometry3d(result_->T_C_S), packet.t_s,
+                    (packet.t_s + result_->phase_shift_s) / result_->period_s, 1 / result_->period_s);
+    }
+    packet.phase = phase_->Estimate();
+  }
 }
 
-double SimulationSetup::PhaseAt(const io::Registration& registration, double t_s) const {
-  return (t_s + registration.phase_shift_s) / registration.period_s;
+void RegisterAdapter::ObservePhase(double t_s, const std::vector<stages::FiducialObservation>& seen) {
+  phase_sightings_.resize(seen.size());
+  for (size_t i = 0; i < seen.size(); ++i) {
+    phase_sightings_[i].valid = seen[i].valid;
+    phase_sightings_[i].uvd_px = {seen[i].uv_left_R_px.x, seen[i].uv_left_R_px.y,
+                                  seen[i].uv_left_R_px.x - seen[i].uv_right_R_px.x};
+  }
+  phase_->Observe(t_s, phase_sightings_);
+}
+
+void RegisterAdapter::Register(const FramePacket& packet, const std::vector<stages::FiducialObservation>& seen) {
+  if (first_frame_) CheckFirstFrameDepths(packet, seen);
+  first_frame_ = false;
+  std::vector<stages::FiducialSighting> sightings;
+  for (const stages::FiducialObservation& observation : seen) {
+    sightings.push_back(stages::SightingFromRectified(observation, geometry_));
+  }
+  if (!stage_.Process(packet.t_s, std::move(sightings))) return;
+  solve_ = std::make_shared<const stages::RegistrationResult>(stage_.Solve());
+  result_ = std::shared_ptr<const io::Registration>(solve_, &solve_->registration);
+  Logger("register").info("registered at frame {}: phase shift {:.2f} ms, residual {:.3f} / {:.3f} px", packet.index,
+                          1e3 * result_->phase_shift_s, result_->left.mean_px, result_->right.mean_px);
+  // The pose places the scan: its fiducials' depths, before any frame is simulated with it.
+  CheckWorkingDistance(DepthsInCamera(result_->T_C_S, first_phase_fiducials_S_m_),
+                       "the scan's fiducials, placed by the registration,", calibration_, near_m_, far_m_,
+                       "stage 'register', frame " + std::to_string(packet.index),
+                       "check the scan's fiducials are in metres (scan.h5 /phases/fiducials_S_m)");
+}
+
+double SimulationSetup::PhaseAt(const FramePacket& packet) {
+  if (packet.phase.valid) return packet.phase.phase;
+  return (packet.t_s + packet.registration->phase_shift_s) / packet.registration->period_s;
 }
 
 std::shared_ptr<const SimulationSetup> LoadSimulationSetup(const io::Scene& scene) {
@@ -172,7 +196,7 @@ void ConstraintAdapter::Process(FramePacket& packet) {
     const sim::TetMesh& mesh = setup_->mesh;
     Eigen::Matrix3Xd first = Eigen::Matrix3Xd::Zero(3, mesh.num_nodes());
     if (setup_->motion) {
-      setup_->motion->Evaluate<double>(setup_->PhaseAt(*registration_, packet.t_s),
+      setup_->motion->Evaluate<double>(SimulationSetup::PhaseAt(packet),
                                        std::span<double>(first.data(), first.size()));
     }
     stages::ConstraintMapper::Options options;
@@ -188,7 +212,7 @@ void ConstraintAdapter::Process(FramePacket& packet) {
   const Eigen::Matrix3Xd* prediction = nullptr;
   if (setup_->predictor) {
     predicted_.resize(3, setup_->mesh.num_nodes());
-    setup_->predictor->Evaluate<double>(setup_->PhaseAt(*registration_, packet.t_s),
+    setup_->predictor->Evaluate<double>(SimulationSetup::PhaseAt(packet),
                                         std::span<double>(predicted_.data(), predicted_.size()));
     prediction = &predicted_;
   }
@@ -215,7 +239,7 @@ void FemAdapter::Process(FramePacket& packet) {
     options.dt_s = setup_->options.dt_s;
     options.damping_per_s = setup_->options.damping_per_s;
     options.fps = setup_->fps;
-    options.phase_at_first_frame = setup_->PhaseAt(*packet.registration, packet.t_s);
+    options.phase_at_first_frame = SimulationSetup::PhaseAt(packet);
     options.sampled_nodes = setup_->options.sampled_nodes;
     options.concurrent = setup_->options.concurrent;
     options.inverse_interval_steps = setup_->options.inverse_interval_steps;
@@ -229,7 +253,7 @@ void FemAdapter::Process(FramePacket& packet) {
                             1e3 * fem_->stability().dt_critical_s);
   }
   std::shared_ptr<stages::FemFrameOutput> output = FreeOutput();
-  fem_->Process(static_cast<int>(packet.index - first_frame_), packet.targets, output.get());
+  fem_->Process(static_cast<int>(packet.index - first_frame_), packet.targets, output.get(), &packet.phase);
   packet.simulation = std::move(output);
   for (const auto& overlay : overlays_) overlay->Publish(packet);
 }

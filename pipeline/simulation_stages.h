@@ -12,6 +12,7 @@
 #include "sim/motion_model.h"
 #include "sim/tet_mesh.h"
 #include "stages/fem_stage.h"
+#include "stages/register/phase_tracker.h"
 #include "stages/register/registration_stage.h"
 #include "stages/track/fiducial_tracker.h"
 #include "stages/track/triangulator.h"
@@ -28,7 +29,9 @@ class OverlayBranch;
 // register: packet.rectified -> packet.registration. Follows the fiducials
 // (FiducialTracker, from their first-frame pixels) over the window, solves
 // once on the frame that completes it (that frame waits for the solution),
-// and hands the result to that frame and every later one. Stateful.
+// and hands the result to that frame and every later one. With live_phase it
+// then keeps following the fiducials and estimates the heart's phase on every
+// frame (stages::PhaseTracker, docs/phase.md) into packet.phase. Stateful.
 // The tissue's depth is checked against the depth range (CheckWorkingDistance)
 // where it is first known: at the first frame, for fiducials that match only
 // outside the range (a range in the wrong unit finds none, and the
@@ -41,7 +44,8 @@ class RegisterAdapter final : public PacketStage {
   // invalid options, motion or period (RegistrationStage).
   RegisterAdapter(const stages::RegistrationStage::Options& options, stages::FiducialMotion motion,
                   const io::StereoCalibration& calibration, double period_s,
-                  const std::vector<Eigen::Vector2d>& first_uv_left_px, double near_m, double far_m);
+                  const std::vector<Eigen::Vector2d>& first_uv_left_px, double near_m, double far_m,
+                  bool live_phase);
   const std::string& name() const override { return name_; }
   bool stateful() const override { return true; }
   void Process(FramePacket& packet) override;
@@ -50,6 +54,10 @@ class RegisterAdapter final : public PacketStage {
   // @throws dg::Error (CheckWorkingDistance) when the first frame sees a
   // fiducial only outside the depth range.
   void CheckFirstFrameDepths(const FramePacket& packet, const std::vector<stages::FiducialObservation>& seen) const;
+  // The frame's fiducials into the registration's window, solving when it is full.
+  void Register(const FramePacket& packet, const std::vector<stages::FiducialObservation>& seen);
+  // The frame's fiducials into the phase tracker's window.
+  void ObservePhase(double t_s, const std::vector<stages::FiducialObservation>& seen);
 
   std::string name_ = "register";
   io::StereoCalibration calibration_;
@@ -60,6 +68,8 @@ class RegisterAdapter final : public PacketStage {
   stages::Triangulator geometry_;
   stages::FiducialTracker tracker_;
   stages::RegistrationStage stage_;
+  std::unique_ptr<stages::PhaseTracker> phase_;  // null without live phase
+  std::vector<stages::RectifiedSighting> phase_sightings_;  // this frame's (reused)
   std::shared_ptr<const stages::RegistrationResult> solve_;
   std::shared_ptr<const io::Registration> result_;  // solve_'s registration
 };
@@ -83,8 +93,9 @@ struct SimulationSetup {
   // simulated frame does not pay for the estimate.
   sim::StabilityReport stability;
 
-  // The motion model's phase at video time t_s under a registration.
-  double PhaseAt(const io::Registration& registration, double t_s) const;
+  // The motion model's phase at a registered frame: the live estimate when
+  // the frame has one, else the registration's (t + lambda) / T.
+  static double PhaseAt(const FramePacket& packet);
 };
 
 // @throws dg::Error for a scene without simulation, a mesh without the named

@@ -45,6 +45,7 @@ void AddEvalCommand(CLI::App& app) {
   protocol->add_option("--seeds", args->protocol.seeds, "Phantom seeds when no scene is given (e.g. 1,2,3)")
       ->delimiter(',')
       ->capture_default_str();
+  phantom::AddBeatOptions(protocol, &args->protocol.beat);
   protocol->add_option("--out", args->protocol.out_dir, "Output directory: runs/, report.md, CSV tables, PNG figures")
       ->capture_default_str();
   protocol->add_option("--threads", args->protocol.threads, "Threads per run (default: all cores)")
@@ -57,6 +58,8 @@ void AddEvalCommand(CLI::App& app) {
                        "Write one `dynaguide run` command per run to this file instead of running them");
   protocol->add_flag("--truth-registration", args->protocol.truth_registration,
                     "Give the runs the truth's registration (the modes' errors without the registration's)");
+  protocol->add_flag("--constant-phase", args->protocol.constant_phase,
+                     "Simulate at the registration's constant phase shift instead of the live phase");
   protocol->add_flag("--quiet", args->quiet, "No progress lines");
   protocol->callback([args] { RunProtocolCommand(*args); });
   AddStabilityCommand(*eval);

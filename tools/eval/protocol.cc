@@ -39,9 +39,17 @@ const std::vector<double> kPaperVolume = {0.25, 0.30, 0.20, 0.23, 0.33};
 constexpr double kPaperResidualMm = 0.47;
 
 std::vector<std::string> SceneFiles(const ProtocolOptions& options) {
-  if (!options.scene.empty()) return {options.scene};
+  if (!options.scene.empty()) {
+    if (options.beat.any()) {
+      throw Error("the beat options make phantoms from seeds, and a scene was given", options.scene,
+                  "give --seeds without a scene, or make the scene with `dynaguide phantom` and its beat options");
+    }
+    return {options.scene};
+  }
   std::vector<std::string> scenes;
-  for (std::uint64_t seed : options.seeds) scenes.push_back(CachedPhantomScenePath("default", seed, options.progress));
+  for (std::uint64_t seed : options.seeds) {
+    scenes.push_back(CachedPhantomScenePath("default", seed, options.progress, options.beat));
+  }
   return scenes;
 }
 
@@ -58,17 +66,22 @@ std::string WriteTruthRegistration(const io::Scene& scene) {
 }
 
 // The scene in one mode, beside the original (its relative paths still
-// resolve), without overlays: the errors do not depend on drawing them.
-std::string WriteModeScene(const io::Scene& scene, const std::string& mode, bool truth_registration) {
+// resolve), without overlays: the errors do not depend on drawing them;
+// with the truth's registration, or with the registration's constant phase
+// shift instead of the live phase, when the options ask.
+std::string WriteModeScene(const io::Scene& scene, const std::string& mode, const ProtocolOptions& options) {
   const std::string& scene_file = scene.path;
   YAML::Node root = YAML::Load(scene.text);
   root["simulation"]["mode"] = mode;
   root.remove("overlays");
-  if (truth_registration) {
+  if (options.truth_registration) {
     root.remove("registration");
     root["registration"]["file"] = WriteTruthRegistration(scene);
+  } else if (options.constant_phase) {
+    root["registration"]["live_phase"] = false;
   }
-  const std::string path = (fs::path(scene_file).parent_path() / ("eval-" + mode + ".yaml")).string();
+  const std::string name = "eval-" + mode + (options.constant_phase ? "-constant-phase" : "") + ".yaml";
+  const std::string path = (fs::path(scene_file).parent_path() / name).string();
   std::ofstream out(path);
   out << "# " << scene_file << " in " << mode << " mode, for `dynaguide eval protocol`\n" << YAML::Dump(root) << "\n";
   if (!out) throw Error("cannot write the mode's scene", path, "make the scene's directory writable");
@@ -87,6 +100,37 @@ std::vector<const RunErrors*> RunsOfMode(const ProtocolResult& result, const std
     if (run.mode == mode) runs.push_back(&run);
   }
   return runs;
+}
+
+// The phase figures of a mode's runs, when they had a live phase and a truth.
+std::string PhaseJson(const ErrorFigures& f) {
+  if (f.phase_frames == 0) return {};
+  char text[256];
+  std::snprintf(text, sizeof text,
+                ", \"phase_frames\": %d, \"phase_error_mean_ms\": %.6g, \"phase_error_max_ms\": %.6g, "
+                "\"registered_phase_error_mean_ms\": %.6g, \"registered_phase_error_max_ms\": %.6g",
+                f.phase_frames, f.phase_error_mean_ms, f.phase_error_max_ms, f.registered_phase_error_mean_ms,
+                f.registered_phase_error_max_ms);
+  return text;
+}
+
+// The cardiac phase against the truth per mode, when the runs estimated it live.
+void AppendPhaseTable(const ProtocolResult& result, std::string* md) {
+  bool any = false;
+  for (const ErrorFigures& f : result.per_mode) any = any || f.phase_frames > 0;
+  if (!any) return;
+  *md += "## Cardiac phase against the truth (ms), every frame from the registration on\n\n"
+         "| mode | frames | live mean | live max | constant shift mean | constant shift max |\n"
+         "|---|---:|---:|---:|---:|---:|\n";
+  for (size_t m = 0; m < ProtocolModes().size(); ++m) {
+    const ErrorFigures& f = result.per_mode[m];
+    if (!result.mode_ran[m] || f.phase_frames == 0) continue;
+    *md += "| " + ProtocolModes()[m] + " | " + std::to_string(f.phase_frames) + " | " +
+           Fixed(f.phase_error_mean_ms) + " | " + Fixed(f.phase_error_max_ms) + " | " +
+           Fixed(f.registered_phase_error_mean_ms) + " | " + Fixed(f.registered_phase_error_max_ms) + " |\n";
+  }
+  *md += "\nLive: the phase estimated every frame from the tracked fiducials (docs/phase.md); constant shift: the "
+         "registration's (t + lambda) / T.\n\n";
 }
 
 void WritePlots(const ProtocolResult& result, const std::string& out_dir) {
@@ -172,7 +216,7 @@ ProtocolResult RunProtocol(const ProtocolOptions& options) {
     const std::string& name = scene.name;
     for (const std::string& mode : ProtocolModes()) {
       RunOptions run;
-      run.scene = WriteModeScene(scene, mode, options.truth_registration);
+      run.scene = WriteModeScene(scene, mode, options);
       run.out_dir = runs_dir + "/" + name + "/" + mode;
       run.threads = options.threads;
       run.video = false;
@@ -269,7 +313,7 @@ std::string WriteProtocolReport(const ProtocolResult& result, const std::string&
   } else {
     md += "Not run: Table 2 is the volume mode's, and no run log here is of that mode.\n\n";
   }
-
+  AppendPhaseTable(result, &md);
 
   md += "## Registration residuals (mean, mm at the fiducials' depth)\n\n| scene | mode | left | right |\n"
         "|---|---|---:|---:|\n";
@@ -305,10 +349,10 @@ void WriteProtocolJson(const ProtocolResult& result, const std::string& path) {
     std::snprintf(line, sizeof line,
                   "    {\"mode\": %s, \"surface_avg_mm\": %.6g, \"surface_max_mm\": %.6g, \"surface_rms_mm\": %.6g, "
                   "\"internal_avg_mm\": %.6g, \"internal_max_mm\": %.6g, \"internal_rms_mm\": %.6g, "
-                  "\"realtime_factor\": %.6g, \"frames\": %d}%s\n",
+                  "\"realtime_factor\": %.6g, \"frames\": %d%s}%s\n",
                   JsonQuoted(ProtocolModes()[m]).c_str(), f.surface_avg_mm, f.surface_max_mm, f.surface_rms_mm,
                   f.internal_avg_mm, f.internal_max_mm, f.internal_rms_mm, sim::Median(factors), f.frames,
-                  m != ran.back() ? "," : "");
+                  PhaseJson(f).c_str(), m != ran.back() ? "," : "");
     json += line;
   }
   json += "  ]\n}\n";

@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "tools/eval/run_errors.h"
+#include "tools/phantom/beat_options.h"
 
 namespace dg::tools {
 
@@ -16,6 +17,7 @@ namespace dg::tools {
 struct ProtocolOptions {
   std::string scene;                  // empty: the default phantom, one scene per seed
   std::vector<std::uint64_t> seeds{1};
+  phantom::BeatOptions beat;          // the seeds' phantoms' beat (unset fields: the preset's)
   std::string out_dir = "out/eval";   // runs/<scene>/<mode>/run.h5, report.md, CSV, PNG
   int threads = 0;                    // 0: all cores
   double cycles = 3;                  // the evaluation window
@@ -26,6 +28,10 @@ struct ProtocolOptions {
   // Give the runs the truth's registration instead of registering from the
   // video: the modes' errors without the registration's (an error budget).
   bool truth_registration = false;
+  // Drive the simulations with the registration's constant phase shift
+  // instead of the live phase (registration.live_phase: false): the baseline
+  // the live phase is measured against.
+  bool constant_phase = false;
   bool progress = true;
 };
 

@@ -7,6 +7,7 @@
 
 #include "io/h5_file.h"
 #include "sim/error.h"
+#include "stages/register/phase_tracker.h"
 
 namespace dg::tools {
 namespace {
@@ -17,6 +18,21 @@ std::vector<T> Column(const io::H5Reader& file, const std::string& name, int* wi
   std::vector<T> values = file.Read<T>("/errors/" + name, &shape);
   if (width) *width = shape.size() == 2 ? static_cast<int>(shape[1]) : 1;
   return values;
+}
+
+// The live phase's and the constant shift's errors against the truth, from /phase.
+void ReadPhaseErrors(const io::H5Reader& file, RunErrors* run) {
+  if (!file.Has("/phase/true_phase")) return;
+  io::H5Shape shape;
+  const std::vector<double> live = file.Read<double>("/phase/phase", &shape);
+  const std::vector<double> registered = file.Read<double>("/phase/registered_phase", &shape);
+  const std::vector<double> truth = file.Read<double>("/phase/true_phase", &shape);
+  const size_t rows = std::min({live.size(), registered.size(), truth.size()});
+  for (size_t r = 0; r < rows; ++r) {
+    run->phase_error_ms.push_back(std::abs(stages::PhaseDifference(live[r], truth[r])) * 1e3 * run->period_s);
+    run->registered_phase_error_ms.push_back(std::abs(stages::PhaseDifference(registered[r], truth[r])) * 1e3 *
+                                             run->period_s);
+  }
 }
 
 }  // namespace
@@ -66,6 +82,7 @@ RunErrors ReadRunErrors(const std::string& run_h5) {
   run.internal_mm.resize(rows * run.internal_points);
   run.fiducial_sim_mm.resize(rows * run.fiducials);
   run.fiducial_model_mm.resize(rows * run.fiducials);
+  ReadPhaseErrors(file, &run);
   return run;
 }
 
@@ -104,6 +121,18 @@ ErrorFigures Figures(const std::vector<const RunErrors*>& runs, int frames) {
       }
       ++fiducial_rows;
     }
+    for (size_t r = 0; r < run->phase_error_ms.size(); ++r) {
+      ++figures.phase_frames;
+      figures.phase_error_mean_ms += run->phase_error_ms[r];
+      figures.phase_error_max_ms = std::max(figures.phase_error_max_ms, run->phase_error_ms[r]);
+      figures.registered_phase_error_mean_ms += run->registered_phase_error_ms[r];
+      figures.registered_phase_error_max_ms =
+          std::max(figures.registered_phase_error_max_ms, run->registered_phase_error_ms[r]);
+    }
+  }
+  if (figures.phase_frames > 0) {
+    figures.phase_error_mean_ms /= figures.phase_frames;
+    figures.registered_phase_error_mean_ms /= figures.phase_frames;
   }
   if (surface_points > 0) {
     figures.surface_avg_mm = surface_sum / surface_points;

@@ -24,6 +24,11 @@ struct RunErrors {
   int internal_points = 0, fiducials = 0;
   std::vector<double> internal_mm;                          // [frame][point]
   std::vector<double> fiducial_sim_mm, fiducial_model_mm;  // [frame][fiducial]
+  // Per frame with a live phase and a truth (rows of /phase, from the
+  // registration to the run's end): |phase - true| of the live estimate and
+  // of the registration's constant shift, in ms of the scan's period. Empty
+  // without them.
+  std::vector<double> phase_error_ms, registered_phase_error_ms;
 };
 
 // @throws dg::Error naming the file when it has no /errors (a run without
@@ -36,6 +41,11 @@ struct ErrorFigures {
   double surface_avg_mm = 0, surface_max_mm = 0, surface_rms_mm = 0;
   double internal_avg_mm = 0, internal_max_mm = 0, internal_rms_mm = 0;
   std::vector<double> fiducial_sim_avg_mm, fiducial_model_avg_mm;  // Table 2: per fiducial
+  // The cardiac phase against the truth over every frame with a live phase
+  // (not only the window): the live estimate's and the constant shift's.
+  int phase_frames = 0;
+  double phase_error_mean_ms = 0, phase_error_max_ms = 0;
+  double registered_phase_error_mean_ms = 0, registered_phase_error_max_ms = 0;
 };
 
 // Over the rows of runs[k] whose frame lies in [first, first + frames) of its

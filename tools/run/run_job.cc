@@ -17,6 +17,7 @@
 #include "pipeline/error_log.h"
 #include "pipeline/mesh_series_sink.h"
 #include "pipeline/overlay_log.h"
+#include "pipeline/phase_log.h"
 #include "pipeline/run_log_sink.h"
 #include "pipeline/simulation_log.h"
 #include "pipeline/stop_request.h"
@@ -128,6 +129,11 @@ RunOutcome RunScene(const RunOptions& options) {
   std::vector<pipeline::RunLogSink::Consumer> consumers;
   pipeline::SimulationLog simulation_log(log, built.simulation, built.given_registration);
   consumers.push_back([&](const pipeline::FramePacket& packet) { simulation_log.Consume(packet); });
+  std::optional<pipeline::PhaseLog> phase_log;
+  if (built.live_phase) {
+    phase_log.emplace(log, scene.truth);
+    consumers.push_back([&](const pipeline::FramePacket& packet) { phase_log->Consume(packet); });
+  }
   std::optional<pipeline::ErrorLog> error_log;
   if (built.simulation && !scene.truth.empty()) {
     error_log.emplace(log, scene.truth, built.simulation->mesh, built.calibration.left,
