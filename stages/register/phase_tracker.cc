@@ -61,7 +61,7 @@ PhaseTracker::PhaseTracker(const Options& options, FiducialMotion scan, const Tr
   }
 }
 
-Eigen::Vector3d PhaseTracker::ScanAt(int fiducial, double phi) const {
+Eigen::Vector3d PhaseTracker::ScanAt(int fiducial, double phi, Eigen::Vector3d* d_dphi) const {
   phi = Wrapped(phi);
   const int P = scan_.num_phases();
   int k = static_cast<int>(std::upper_bound(scan_.phases.begin(), scan_.phases.end(), phi) - scan_.phases.begin()) - 1;
@@ -76,16 +76,30 @@ Eigen::Vector3d PhaseTracker::ScanAt(int fiducial, double phi) const {
   const double length = (next == 0 ? scan_.phases[0] + 1.0 : scan_.phases[next]) - scan_.phases[k];
   const double s = (phi - start) / length;
   const double s2 = s * s, s3 = s2 * s;
-  const double h00 = 2 * s3 - 3 * s2 + 1, h10 = s3 - 2 * s2 + s, h01 = -2 * s3 + 3 * s2, h11 = s3 - s2;
-  return h00 * scan_.positions_S_m[k].col(fiducial) + h10 * length * tangents_S_m_[k].col(fiducial) +
-         h01 * scan_.positions_S_m[next].col(fiducial) + h11 * length * tangents_S_m_[next].col(fiducial);
+  const auto p0 = scan_.positions_S_m[k].col(fiducial), p1 = scan_.positions_S_m[next].col(fiducial);
+  const Eigen::Vector3d m0 = length * tangents_S_m_[k].col(fiducial), m1 = length * tangents_S_m_[next].col(fiducial);
+  if (d_dphi) {
+    *d_dphi = ((6 * s2 - 6 * s) * p0 + (3 * s2 - 4 * s + 1) * m0 + (6 * s - 6 * s2) * p1 + (3 * s2 - 2 * s) * m1) /
+              length;
+  }
+  return (2 * s3 - 3 * s2 + 1) * p0 + (s3 - 2 * s2 + s) * m0 + (3 * s2 - 2 * s3) * p1 + (s3 - s2) * m1;
 }
 
-Eigen::Vector3d PhaseTracker::Expected(int fiducial, double phi, double amplitude,
-                                       const Eigen::Vector3d& offset_C_m) const {
+Eigen::Vector3d PhaseTracker::Expected(int fiducial, double phi, double amplitude, const Eigen::Vector3d& offset_C_m,
+                                       Eigen::Matrix<double, 3, 5>* d_dpAd) const {
   const Eigen::Vector3d mean = mean_S_m_.col(fiducial);
-  const Eigen::Vector3d x_S = mean + amplitude * (ScanAt(fiducial, phi) - mean);
-  return geometry_.ToRectifiedDisparity(T_C_S_ * x_S + offset_C_m);
+  Eigen::Vector3d d_dphi;
+  const Eigen::Vector3d scan = ScanAt(fiducial, phi, d_dpAd ? &d_dphi : nullptr);
+  const Eigen::Vector3d x_S = mean + amplitude * (scan - mean);
+  Eigen::Matrix3d d_dX;
+  const Eigen::Vector3d expected = geometry_.ToRectifiedDisparity(T_C_S_ * x_S + offset_C_m, d_dpAd ? &d_dX : nullptr);
+  if (d_dpAd) {
+    const Eigen::Matrix3d d_dX_S = d_dX * T_C_S_.linear();
+    d_dpAd->col(0) = d_dX_S * (amplitude * d_dphi);
+    d_dpAd->col(1) = d_dX_S * (scan - mean);
+    d_dpAd->rightCols<3>() = d_dX;
+  }
+  return expected;
 }
 
 void PhaseTracker::Observe(double t_s, const std::vector<RectifiedSighting>& fiducials) {
@@ -142,23 +156,14 @@ void PhaseTracker::Accumulate(const Unknowns& x, double now_s, Normal* normal) c
     for (size_t i = 0; i < frame.fiducials.size(); ++i) {
       if (!frame.fiducials[i].valid) continue;
       const int fiducial = static_cast<int>(i);
-      const Eigen::Vector3d predicted = Expected(fiducial, at.phase, x.amplitude, x.offset_C_m);
+      Eigen::Matrix<double, 3, 5> d_dpAd;  // by the frame's phase, A and d
+      const Eigen::Vector3d predicted = Expected(fiducial, at.phase, x.amplitude, x.offset_C_m, &d_dpAd);
       const Eigen::Vector3d residual = frame.fiducials[i].uvd_px - predicted;
-      // Derivatives by differences (the spline is C1 in phase; the rest is smooth).
-      constexpr double kPhaseStep = 1e-4, kAmplitudeStep = 1e-4, kOffsetStep = 1e-6;
-      const Eigen::Vector3d d_phase = (Expected(fiducial, at.phase + kPhaseStep, x.amplitude, x.offset_C_m) -
-                                       Expected(fiducial, at.phase - kPhaseStep, x.amplitude, x.offset_C_m)) /
-                                      (2 * kPhaseStep);
       Eigen::Matrix<double, 3, kUnknowns> J;
-      J.col(0) = d_phase * at.d_phase;
-      J.col(1) = d_phase * at.d_rate;
-      J.col(2) = d_phase * at.d_previous_rate;
-      J.col(3) = (Expected(fiducial, at.phase, x.amplitude + kAmplitudeStep, x.offset_C_m) - predicted) /
-                 kAmplitudeStep;
-      for (int c = 0; c < 3; ++c) {
-        const Eigen::Vector3d shifted = x.offset_C_m + kOffsetStep * Eigen::Vector3d::Unit(c);
-        J.col(4 + c) = (Expected(fiducial, at.phase, x.amplitude, shifted) - predicted) / kOffsetStep;
-      }
+      J.col(0) = d_dpAd.col(0) * at.d_phase;
+      J.col(1) = d_dpAd.col(0) * at.d_rate;
+      J.col(2) = d_dpAd.col(0) * at.d_previous_rate;
+      J.rightCols<4>() = d_dpAd.rightCols<4>();
       const Eigen::Matrix<double, 3, kUnknowns> WJ = (w * axis_weight).asDiagonal() * J;
       normal->matrix += J.transpose() * WJ;
       normal->gradient += WJ.transpose() * residual;

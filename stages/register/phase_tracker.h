@@ -101,10 +101,13 @@ class PhaseTracker {
   };
   // The weighted normal equations of the window and the priors at x.
   void Accumulate(const Unknowns& x, double now_s, Normal* normal) const;
-  // Fiducial i's expected sighting at phase phi under amplitude A and offset d.
-  Eigen::Vector3d Expected(int fiducial, double phi, double amplitude, const Eigen::Vector3d& offset_C_m) const;
-  // Fiducial i at phase phi in S, by the cyclic spline through the scan's phases.
-  Eigen::Vector3d ScanAt(int fiducial, double phi) const;
+  // Fiducial i's expected sighting at phase phi under amplitude A and offset
+  // d, and optionally its derivatives by phi, A and d (columns).
+  Eigen::Vector3d Expected(int fiducial, double phi, double amplitude, const Eigen::Vector3d& offset_C_m,
+                           Eigen::Matrix<double, 3, 5>* d_dpAd = nullptr) const;
+  // Fiducial i at phase phi in S, by the cyclic spline through the scan's
+  // phases, and optionally its derivative by phi.
+  Eigen::Vector3d ScanAt(int fiducial, double phi, Eigen::Vector3d* d_dphi = nullptr) const;
 
   Options options_;
   FiducialMotion scan_;

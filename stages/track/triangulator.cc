@@ -46,12 +46,22 @@ Eigen::Vector3d Triangulator::Triangulate(const Eigen::Vector2d& uv_left_R_px, d
   return rectification_.R1.transpose() * (X.head<3>() / X.w());
 }
 
-Eigen::Vector3d Triangulator::ToRectifiedDisparity(const Eigen::Vector3d& X_C_m) const {
+Eigen::Vector3d Triangulator::ToRectifiedDisparity(const Eigen::Vector3d& X_C_m, Eigen::Matrix3d* d_dX_C) const {
   const Eigen::Vector3d X_R = rectification_.R1 * X_C_m;
   const Eigen::Vector2d left = PixelOf(rectification_.P1, X_R);
-  // The right rectified camera sees X_R shifted by its baseline: P2 = [K | K t].
+  // The right rectified camera sees X_R shifted by its baseline: P2 = [K | K t], so
+  // d = (f1 - f2) x / z + (cx1 - cx2) - P2_03 / z.
+  const auto& P1 = rectification_.P1;
   const auto& P2 = rectification_.P2;
   const double u_right = (P2(0, 0) * X_R.x() + P2(0, 2) * X_R.z() + P2(0, 3)) / X_R.z();
+  if (d_dX_C) {
+    const double x = X_R.x(), y = X_R.y(), z = X_R.z(), df = P1(0, 0) - P2(0, 0);
+    Eigen::Matrix3d d_dX_R;
+    d_dX_R << P1(0, 0) / z, 0, -P1(0, 0) * x / (z * z),  //
+        0, P1(1, 1) / z, -P1(1, 1) * y / (z * z),         //
+        df / z, 0, (P2(0, 3) - df * x) / (z * z);
+    *d_dX_C = d_dX_R * rectification_.R1;
+  }
   return {left.x(), left.y(), left.x() - u_right};
 }
 

@@ -20,8 +20,9 @@ class Triangulator {
   // X_C = R1^T X_R. @pre disparity_px > 0 (a point in front of both cameras).
   Eigen::Vector3d Triangulate(const Eigen::Vector2d& uv_left_R_px, double disparity_px) const;
   // The inverse: the left rectified pixel and the disparity of a point in C,
-  // as (u, v, d). @pre the point lies in front of the cameras.
-  Eigen::Vector3d ToRectifiedDisparity(const Eigen::Vector3d& X_C_m) const;
+  // as (u, v, d), and optionally their derivatives by X_C (rows u, v, d).
+  // @pre the point lies in front of the cameras.
+  Eigen::Vector3d ToRectifiedDisparity(const Eigen::Vector3d& X_C_m, Eigen::Matrix3d* d_dX_C = nullptr) const;
 
   // Original (distorted) pixel of a rectified pixel, through the ray it sees.
   Eigen::Vector2d LeftToDistorted(const Eigen::Vector2d& uv_R_px) const;

@@ -79,6 +79,16 @@ TEST_CASE("triangulator: a point seen in both rectified images triangulates to i
   const Eigen::Vector2d uv_right_R = (rectification.P2 * in_left_R.homogeneous()).hnormalized();
   CHECK_THAT(uv_left_R.y() - uv_right_R.y(), Catch::Matchers::WithinAbs(0, 1e-9));
   CHECK((triangulator.Triangulate(uv_left_R, uv_left_R.x() - uv_right_R.x()) - xyz_C).norm() < 1e-9);
+  // And back to the rectified pixel and disparity, with derivatives that central differences confirm.
+  Eigen::Matrix3d d_dX;
+  const Eigen::Vector3d uvd = triangulator.ToRectifiedDisparity(xyz_C, &d_dX);
+  CHECK((uvd - Eigen::Vector3d(uv_left_R.x(), uv_left_R.y(), uv_left_R.x() - uv_right_R.x())).norm() < 1e-9);
+  for (int c = 0; c < 3; ++c) {
+    const Eigen::Vector3d h = 1e-7 * Eigen::Vector3d::Unit(c);
+    const Eigen::Vector3d numeric =
+        (triangulator.ToRectifiedDisparity(xyz_C + h) - triangulator.ToRectifiedDisparity(xyz_C - h)) / 2e-7;
+    CHECK((d_dX.col(c) - numeric).norm() < 1e-5 * numeric.norm() + 1e-3);
+  }
   // Original pixels, as OpenCV projects the point, and back.
   std::vector<cv::Point2d> left_px, right_px;
   const std::vector<cv::Point3d> point{{xyz_C.x(), xyz_C.y(), xyz_C.z()}};
