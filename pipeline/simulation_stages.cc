@@ -111,7 +111,7 @@ void RegisterAdapter::Register(const FramePacket& packet, const std::vector<stag
   if (!stage_.Process(packet.t_s, std::move(sightings))) return;
   solve_ = std::make_shared<const stages::RegistrationResult>(stage_.Solve());
   result_ = std::shared_ptr<const io::Registration>(solve_, &solve_->registration);
-  Logger("register").info("registered at frame {}: phase shift {:.2f} ms, residual {:.3f} / {:.3f} px", packet.index,
+  Logger("pipeline").info("registered at frame {}: phase shift {:.2f} ms, residual {:.3f} / {:.3f} px", packet.index,
                           1e3 * result_->phase_shift_s, result_->left.mean_px, result_->right.mean_px);
   // The pose places the scan: its fiducials' depths, before any frame is simulated with it.
   CheckWorkingDistance(DepthsInCamera(result_->T_C_S, first_phase_fiducials_S_m_),
@@ -155,7 +155,7 @@ std::shared_ptr<const SimulationSetup> LoadSimulationSetup(const io::Scene& scen
     // The simulation then steps at the largest stable fraction of dt_s; a
     // frame takes that many more steps (FemStage: round(1 / (fps dt))).
     const int substeps = static_cast<int>(std::ceil(setup->options.dt_s / safe_dt_s));
-    Logger("simulate").info("simulation.dt_s = {:.4g} ms split into {} substeps of {:.4g} ms: {}",
+    Logger("pipeline").info("simulation.dt_s = {:.4g} ms split into {} substeps of {:.4g} ms: {}",
                             setup->options.dt_s * 1e3, substeps, setup->options.dt_s / substeps * 1e3, excess);
     setup->options.dt_s /= substeps;
   }
@@ -170,7 +170,7 @@ std::shared_ptr<const SimulationSetup> LoadSimulationSetup(const io::Scene& scen
     try {
       setup->predictor = load_motion();
     } catch (const Error& e) {
-      Logger("simulate").warn("surface mode without the scan's node motion ({}): across dropped frames the "
+      Logger("pipeline").warn("surface mode without the scan's node motion ({}): across dropped frames the "
                               "constraints move at the fastest tracked speed instead of following the scan",
                               e.what());
     }
@@ -248,7 +248,7 @@ void FemAdapter::Process(FramePacket& packet) {
     fem_ = std::make_unique<stages::FemStage>(options, setup_->mesh, setup_->material, setup_->motion,
                                               setup_->predictor, setup_->fixed_nodes, &setup_->stability);
     first_frame_ = packet.index;
-    Logger("simulate").info("simulation starts at frame {} ({} mode, {}, dt {} ms, critical dt {:.3f} ms)",
+    Logger("pipeline").info("simulation starts at frame {} ({} mode, {}, dt {} ms, critical dt {:.3f} ms)",
                             packet.index, setup_->options.mode, setup_->options.precision, 1e3 * options.dt_s,
                             1e3 * fem_->stability().dt_critical_s);
   }

@@ -204,7 +204,7 @@ PreopSummary RunPreop(const PreopOptions& options) {
       return tets;
     });
     if (summary.mesh.base_nodes == 0) {
-      Logger("preop").warn("no mesh node touches the mount: the simulation has no fixed nodes and needs its "
+      Logger("tools").warn("no mesh node touches the mount: the simulation has no fixed nodes and needs its "
                            "surface constraints to hold the organ (check the mount's HU range or label)");
     }
 

@@ -84,7 +84,7 @@ bool WantsMeshSeries(const RunOptions& options, const pipeline::SceneGraph& buil
   if (options.mesh_series) return *options.mesh_series;
   const std::int64_t node_frames = FramesInRange(options.graph, recording_frames) * built.simulation->mesh.num_nodes();
   const bool on = node_frames <= kMeshSeriesDefaultNodeFrames;
-  Logger("run").info("mesh series {}: {} frames x {} nodes is {} the default's bound of {} ({} to choose)",
+  Logger("tools").info("mesh series {}: {} frames x {} nodes is {} the default's bound of {} ({} to choose)",
                      on ? "written" : "not written", FramesInRange(options.graph, recording_frames),
                      built.simulation->mesh.num_nodes(), on ? "within" : "above", kMeshSeriesDefaultNodeFrames,
                      on ? "--no-mesh-series" : "--mesh-series");
@@ -118,7 +118,7 @@ RunOutcome RunScene(const RunOptions& options) {
   if (!claim.removed().empty()) {
     std::string names;
     for (const std::string& name : claim.removed()) names += (names.empty() ? "" : ", ") + name;
-    Logger("run").info("removed what an earlier run left in {}: {}", options.out_dir, names);
+    Logger("tools").info("removed what an earlier run left in {}: {}", options.out_dir, names);
   }
   RunOutcome outcome;
   outcome.log_path = (fs::path(options.out_dir) / "run.h5").string();
@@ -187,7 +187,7 @@ RunOutcome RunScene(const RunOptions& options) {
   if (overlay_log) {
     overlay_log->Finish(result.start_steady_ns);
     if (const std::string missing = overlay_log->MissingOverlays(); !missing.empty()) {
-      Logger("run").warn("{}; the overlays draw beside the frames at their own pace, and this range ended first "
+      Logger("tools").warn("{}; the overlays draw beside the frames at their own pace, and this range ended first "
                          "(run a longer range, or in real time)", missing);
     }
   }
@@ -218,11 +218,11 @@ RunOutcome RunScene(const RunOptions& options) {
         log.Finish(false, e.what());
         throw;
       }
-      Logger("run").warn("the mesh series could not be marked incomplete: {}", e.what());
+      Logger("tools").warn("the mesh series could not be marked incomplete: {}", e.what());
     }
   }
   if (result.complete && built.simulation && outcome.simulated_frames == 0) {
-    Logger("run").warn("the video ended before the registration window was full: nothing was simulated "
+    Logger("tools").warn("the video ended before the registration window was full: nothing was simulated "
                        "(register over fewer cycles with registration.cycles, or give registration.file)");
   }
   log.Finish(result.complete, result.error);

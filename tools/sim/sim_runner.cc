@@ -72,7 +72,7 @@ void FinishIncomplete(io::XdmfTimeSeriesWriter* series, const std::string& summa
     if (series) series->Close(false);
     if (!summary_path.empty()) WriteSummaryJson(summary_path, summary, status);
   } catch (const Error& e) {
-    Logger("sim").warn("the outputs could not all be marked incomplete: {}", e.what());
+    Logger("tools").warn("the outputs could not all be marked incomplete: {}", e.what());
   }
 }
 
