@@ -45,7 +45,8 @@ struct CoupledOptions {
 //             applied in the current geometry U_n (eq. 5), inside the
 //             solver's element pass (k = 1: w_n itself);
 //   inverse:  when j = 0, level a + 2 of InverseSimulation (w_{a+2} at step
-//             (a + 2) k; motion model Um at phase_at_start + t / period).
+//             (a + 2) k; motion model Um at the phase clock's phase, which is
+//             phase_at_start + t / period until SteerPhase() steers it).
 // The two are independent, so with `concurrent` they run side by side: each
 // of the step's two passes (elements, then nodes) is one pass of a StepTeam
 // over both sides' fixed chunks, two barriers per step, however many threads.

@@ -57,7 +57,8 @@ extern template class ForceRecovery<double>;
 
 // The inverse side of the coupled simulation (paper section 2.6): level by
 // level, level n at step s = n k (k = interval_steps; t = s dt, the motion
-// model Um at phase_at_start + t / period), the weights (eq. 5,
+// model Um at phase_clock()'s phase: phase_at_start + t / period unless
+// steered), the weights (eq. 5,
 // ForceResolution's layout) of the forces that ForceRecovery would recover
 // from Um at steps s - 1, s, s + 1 (eq. 4, the forward step's own stencil),
 // resolved in the geometry X + Um_n. With k = 1 the levels are the forward
