@@ -116,7 +116,7 @@ SceneGraph BuildSceneGraph(const io::Scene& scene, const GraphOptions& options, 
   stages.push_back(std::make_unique<TrackAdapter>(tracking, built.calibration));
 
   io::Scene with_defaults = scene;  // a simulation is registered over the default window unless the scene says
-  if (with_defaults.simulation && !with_defaults.registration) with_defaults.registration.emplace();
+  if (with_defaults.simulation && !with_defaults.registration) with_defaults.registration = io::Scene::Registration{};
   if (with_defaults.registration) {
     if (!with_defaults.registration->file.empty()) {
       built.given_registration =

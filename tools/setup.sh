@@ -10,7 +10,7 @@ root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 build_dir="${DG_BUILD_DIR:-$root/build}"
 
 packages=(
-  build-essential cmake ninja-build pkg-config
+  build-essential clang-14 cmake ninja-build pkg-config
   libeigen3-dev libtbb-dev libspdlog-dev libfmt-dev
   libopencv-dev opencv-doc libceres-dev
   libhdf5-dev hdf5-tools libyaml-cpp-dev libcli11-dev catch2
