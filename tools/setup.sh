@@ -13,7 +13,7 @@ packages=(
   build-essential clang-14 cmake ninja-build pkg-config
   libeigen3-dev libtbb-dev libspdlog-dev libfmt-dev
   libopencv-dev opencv-doc libceres-dev
-  libhdf5-dev hdf5-tools libyaml-cpp-dev libcli11-dev catch2
+  libhdf5-dev hdf5-tools libyaml-cpp-dev libcli11-dev nlohmann-json3-dev catch2
   libgmsh-dev
   libinsighttoolkit5-dev libgdcm-tools libvtk9-dev python3-pydicom python3-numpy
 )
