@@ -19,12 +19,12 @@
 #include "io/surface_mesh.h"
 #include "io/surface_mesh_reader.h"
 #include "pipeline/overlay_stages.h"
+#include "pipeline/run_scene.h"
 #include "sim/error.h"
 #include "sim/stability.h"
 #include "stages/image_sequence.h"
 #include "tests/support/h5_plain.h"
 #include "tests/support/tiny_phantom.h"
-#include "tools/run/run_job.h"
 
 namespace dg {
 namespace {
@@ -41,10 +41,10 @@ fs::path FreshFolder(const std::string& name) {
 
 // A run of the tiny phantom's scene as `text` gives it (written beside the
 // scene as scene_NAME.yaml) into a fresh folder, without video or progress.
-tools::RunOptions VariantRun(const std::string& name, const std::string& text) {
+pipeline::RunOptions VariantRun(const std::string& name, const std::string& text) {
   const std::string path = dg::testing::TinyPhantomDir() + "/scene_" + name + ".yaml";
   std::ofstream(path) << text;
-  tools::RunOptions options;
+  pipeline::RunOptions options;
   options.scene = path;
   options.out_dir = FreshFolder(name).string();
   options.video = false;
@@ -60,9 +60,9 @@ std::pair<double, double> NamedDepths(const std::string& message) {
 }
 
 // The message of the dg::Error a run throws ("" when it throws none).
-std::string RunError(const tools::RunOptions& options) {
+std::string RunError(const pipeline::RunOptions& options) {
   try {
-    tools::RunScene(options);
+    pipeline::RunScene(options);
   } catch (const Error& e) {
     return e.what();
   }
@@ -103,17 +103,17 @@ TEST_CASE("bad values: an image sequence's number field wider than a file name's
 
 TEST_CASE("bad values: snapshots of frames the run does not read are refused before it starts",
           "[faults][integration]") {
-  tools::RunOptions options;
+  pipeline::RunOptions options;
   options.scene = dg::testing::TinyPhantomDir() + "/scene.yaml";
   options.out_dir = FreshFolder("snapshots").string();
   options.video = false;
   options.progress = false;
   options.graph.end_frame = 10;
   options.snapshots = {5, 10};
-  REQUIRE_THROWS_WITH(tools::RunScene(options), Contains("--snapshots names frame 10, outside the frames this run "
+  REQUIRE_THROWS_WITH(pipeline::RunScene(options), Contains("--snapshots names frame 10, outside the frames this run "
                                                          "reads (0 to 9)"));
   options.snapshots = {-1};
-  REQUIRE_THROWS_WITH(tools::RunScene(options), Contains("names frame -1"));
+  REQUIRE_THROWS_WITH(pipeline::RunScene(options), Contains("names frame -1"));
   REQUIRE(fs::is_empty(options.out_dir));  // refused before anything was written
   fs::remove_all(options.out_dir);
 }
@@ -132,8 +132,8 @@ TEST_CASE("bad values: a mesh in millimetres read as metres is refused at scene 
   const size_t at = text.find("mesh.msh");
   REQUIRE(at != std::string::npos);
   text.replace(at, 8, "mesh_in_mm.msh");
-  const tools::RunOptions options = VariantRun("mesh_in_mm", text);
-  REQUIRE_THROWS_WITH(tools::RunScene(options), Contains("coordinates are probably in millimetres") &&
+  const pipeline::RunOptions options = VariantRun("mesh_in_mm", text);
+  REQUIRE_THROWS_WITH(pipeline::RunScene(options), Contains("coordinates are probably in millimetres") &&
                                                     Contains("mesh_in_mm.msh") && Contains("units: mm"));
   REQUIRE(fs::is_empty(options.out_dir));
   fs::remove_all(options.out_dir);
@@ -160,21 +160,21 @@ TEST_CASE("bad values: overlay meshes in millimetres are refused without units a
     REQUIRE(at != std::string::npos);
     text.replace(at + 7, std::string(name).size(), mm_name);
   }
-  const tools::RunOptions as_metres = VariantRun("overlays_in_mm", text);
+  const pipeline::RunOptions as_metres = VariantRun("overlays_in_mm", text);
   const std::string error = RunError(as_metres);
   CHECK_THAT(error, Contains("_mm.") && Contains("units: mm"));
 
   const size_t overlays = text.find("overlays:\n");
   REQUIRE(overlays != std::string::npos);
   text.insert(overlays + 10, "  units: mm\n");
-  const tools::RunOptions with_units = VariantRun("overlays_with_units", text);
+  const pipeline::RunOptions with_units = VariantRun("overlays_with_units", text);
   const io::Scene loaded = io::ReadScene(with_units.scene);
   const std::vector<stages::overlay::OverlaySurface> chambers = pipeline::InternalMeshSurfaces(*loaded.overlays);
   REQUIRE(chambers.size() == 2);
   const io::SurfaceMesh original = io::ReadSurfaceMesh(dir + "/assets/chamber_0.obj");
   CHECK((chambers[0].mesh.vertices_m - original.vertices_m).cwiseAbs().maxCoeff() < 1e-15);
   CHECK((pipeline::TexturedSurface(*loaded.overlays).mesh.uvs.size() > 0));
-  tools::RunScene(with_units);
+  pipeline::RunScene(with_units);
   const hid_t file = H5Fopen((with_units.out_dir + "/run.h5").c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
   REQUIRE(file >= 0);
   CHECK(testing::h5_plain::IntAttribute(file, "/overlay_timings", "meshes_drawn") >= 1);
@@ -192,8 +192,8 @@ TEST_CASE("bad values: a simulation time step above the mesh's stable limit is r
   const size_t at = text.find("dt_s: 2.0e-4");
   REQUIRE(at != std::string::npos);
   text.replace(at, 12, "dt_s: 2.0e-3");
-  const tools::RunOptions options = VariantRun("large_dt", text);
-  REQUIRE_THROWS_WITH(tools::RunScene(options), Contains("simulation.dt_s: time step 2 ms exceeds") &&
+  const pipeline::RunOptions options = VariantRun("large_dt", text);
+  REQUIRE_THROWS_WITH(pipeline::RunScene(options), Contains("simulation.dt_s: time step 2 ms exceeds") &&
                                                     Contains("critical time step") && Contains("highest mode") &&
                                                     Contains("set simulation.dt_s at or below") &&
                                                     Contains("time_step_policy: substep"));
@@ -203,8 +203,8 @@ TEST_CASE("bad values: a simulation time step above the mesh's stable limit is r
   // every frame's step is below the stable fraction (0.9 of dt_cr at the
   // phantom's nu = 0.45) and above half of it.
   text.replace(text.find("dt_s: 2.0e-3"), 12, "dt_s: 2.0e-3\n  time_step_policy: substep");
-  const tools::RunOptions substepping = VariantRun("large_dt_substep", text);
-  const tools::RunOutcome outcome = tools::RunScene(substepping);
+  const pipeline::RunOptions substepping = VariantRun("large_dt_substep", text);
+  const pipeline::RunOutcome outcome = pipeline::RunScene(substepping);
   REQUIRE(outcome.simulated_frames > 0);
   const hid_t file = H5Fopen((substepping.out_dir + "/run.h5").c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
   REQUIRE(file >= 0);
@@ -238,9 +238,9 @@ TEST_CASE("bad values: both eyes the same video, or the eyes exchanged, stop the
     std::string text = scene.text;
     text.replace(right, 22, "right: video/" + c.right);
     text.replace(left, 20, "left: video/" + c.left);
-    const tools::RunOptions options = VariantRun(c.name, text);
+    const pipeline::RunOptions options = VariantRun(c.name, text);
     INFO(c.name);
-    REQUIRE_THROWS_WITH(tools::RunScene(options), Contains(c.expected) && Contains("frame 0") &&
+    REQUIRE_THROWS_WITH(pipeline::RunScene(options), Contains(c.expected) && Contains("frame 0") &&
                                                       Contains("video.left and video.right"));
     const hid_t file = H5Fopen((options.out_dir + "/run.h5").c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
     REQUIRE(file >= 0);
@@ -280,8 +280,8 @@ TEST_CASE("bad values: a CT grid in another unit or another frame than the mesh 
     const size_t at = text.find("ct: ct/");
     REQUIRE(at != std::string::npos);
     text.replace(at, 7, "ct: " + c.name + "/");
-    const tools::RunOptions options = VariantRun(c.name, text);
-    REQUIRE_THROWS_WITH(tools::RunScene(options), Contains(c.expected) && Contains(c.name + "/phase_00.mhd"));
+    const pipeline::RunOptions options = VariantRun(c.name, text);
+    REQUIRE_THROWS_WITH(pipeline::RunScene(options), Contains(c.expected) && Contains(c.name + "/phase_00.mhd"));
     REQUIRE(fs::is_empty(options.out_dir));
     fs::remove_all(options.out_dir);
   }
@@ -295,7 +295,7 @@ TEST_CASE("bad values: a CT grid in another unit or another frame than the mesh 
 TEST_CASE("bad values: a depth range in millimetres is refused at the first frame, naming the tissue's depth",
           "[faults][integration]") {
   const std::string dir = dg::testing::TinyPhantomDir();
-  tools::RunOptions options = VariantRun("range_in_mm", io::ReadScene(dir + "/scene.yaml").text);
+  pipeline::RunOptions options = VariantRun("range_in_mm", io::ReadScene(dir + "/scene.yaml").text);
   options.front_end.near_m = 30;
   options.front_end.far_m = 300;
   const std::string message = RunError(options);
@@ -356,7 +356,7 @@ TEST_CASE("bad values: a given registration in millimetres is refused at scene l
   const size_t at = text.find("registration:\n  cycles: 1");
   REQUIRE(at != std::string::npos);
   text.replace(at, 25, "registration:\n  file: pose_in_mm.yaml");
-  const tools::RunOptions options = VariantRun("pose_in_mm", text);
+  const pipeline::RunOptions options = VariantRun("pose_in_mm", text);
   const std::string message = RunError(options);
   INFO(message);
   CHECK_THAT(message, Contains("the scan's fiducials, placed by registration.file,") &&
@@ -406,7 +406,7 @@ TEST_CASE("bad values: fiducial pixels out of order are reassigned, a pixel besi
     text.insert(block + 14, "  fiducials_uv: " + pixels + "\n");
     return VariantRun(name, text);
   };
-  auto read_log = [](const tools::RunOptions& options, const char* dataset) {
+  auto read_log = [](const pipeline::RunOptions& options, const char* dataset) {
     const hid_t file = H5Fopen((options.out_dir + "/run.h5").c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
     REQUIRE(file >= 0);
     std::vector<double> values = testing::h5_plain::Doubles(file, dataset);
@@ -415,10 +415,10 @@ TEST_CASE("bad values: fiducial pixels out of order are reassigned, a pixel besi
     return values;
   };
 
-  const tools::RunOptions in_order = run_from("uv_in_order", {0, 1, 2, 3, 4, 5}, 0);
-  tools::RunScene(in_order);
-  const tools::RunOptions swapped = run_from("uv_swapped", {1, 0, 3, 2, 4, 5}, 0);
-  tools::RunScene(swapped);
+  const pipeline::RunOptions in_order = run_from("uv_in_order", {0, 1, 2, 3, 4, 5}, 0);
+  pipeline::RunScene(in_order);
+  const pipeline::RunOptions swapped = run_from("uv_swapped", {1, 0, 3, 2, 4, 5}, 0);
+  pipeline::RunScene(swapped);
   CHECK(read_log(swapped, "/registration/assignment/scan_fiducial_of_track") == std::vector<double>{1, 0, 3, 2, 4, 5});
   CHECK(read_log(in_order, "/registration/assignment/scan_fiducial_of_track") == std::vector<double>{0, 1, 2, 3, 4, 5});
   // The reassigned tracks are the same tracks in the scan's order: the same registration, to the bit.
@@ -426,7 +426,7 @@ TEST_CASE("bad values: fiducial pixels out of order are reassigned, a pixel besi
 
   // Fiducial 0's pixel 8 px (5% of the frame) to the right: the track departs
   // about 6 px from the pose the other five fit, against 1 px for the right pixels.
-  const tools::RunOptions beside = run_from("uv_beside", {0, 1, 2, 3, 4, 5}, 8);
+  const pipeline::RunOptions beside = run_from("uv_beside", {0, 1, 2, 3, 4, 5}, 8);
   const std::string message = RunError(beside);
   CHECK_THAT(message, Contains("fit the scan's fiducials in no order") && Contains("track 0 departs") &&
                           Contains("registration.fiducials_uv"));
@@ -435,7 +435,7 @@ TEST_CASE("bad values: fiducial pixels out of order are reassigned, a pixel besi
   CHECK(testing::h5_plain::IntAttribute(file, "/", "complete") == 0);
   CHECK_THAT(testing::h5_plain::StringAttribute(file, "/", "error"), Contains("stage 'register'"));
   H5Fclose(file);
-  for (const tools::RunOptions* options : {&in_order, &swapped, &beside}) fs::remove_all(options->out_dir);
+  for (const pipeline::RunOptions* options : {&in_order, &swapped, &beside}) fs::remove_all(options->out_dir);
 }
 
 }  // namespace

@@ -13,8 +13,8 @@
 
 #include <catch2/catch.hpp>
 
+#include "pipeline/run_scene.h"
 #include "tests/support/tiny_phantom.h"
-#include "tools/run/run_job.h"
 
 namespace dg::io {
 namespace {
@@ -65,7 +65,7 @@ TEST_CASE("output folder: an earlier run's outputs are removed; other files and 
                            "notes.txt", "composite.txt"}) {
     WriteText(folder / name, "earlier");
   }
-  const OutputFolderClaim claim(folder.string(), "dynaguide run", tools::RunOutputNames(),
+  const OutputFolderClaim claim(folder.string(), "dynaguide run", pipeline::RunOutputNames(),
                                 {(folder / "registration.yaml").string()});
   std::vector<std::string> removed = claim.removed();
   std::sort(removed.begin(), removed.end());
@@ -81,14 +81,14 @@ TEST_CASE("output folder: an earlier run's outputs are removed; other files and 
 TEST_CASE("output folder: a run into a folder in use is refused and leaves the holder's files untouched",
           "[faults][integration]") {
   const fs::path folder = FreshFolder("busy");
-  const OutputFolderClaim holder(folder.string(), "dynaguide run", tools::RunOutputNames());
+  const OutputFolderClaim holder(folder.string(), "dynaguide run", pipeline::RunOutputNames());
   WriteText(folder / "run.h5.part", "the holder's log");
-  tools::RunOptions options;
+  pipeline::RunOptions options;
   options.scene = dg::testing::TinyPhantomDir() + "/scene.yaml";
   options.out_dir = folder.string();
   options.video = false;
   options.progress = false;
-  REQUIRE_THROWS_WITH(tools::RunScene(options), Contains("in use by another dynaguide process (pid " +
+  REQUIRE_THROWS_WITH(pipeline::RunScene(options), Contains("in use by another dynaguide process (pid " +
                                                          std::to_string(getpid()) + ")"));
   REQUIRE(ReadText(folder / "run.h5.part") == "the holder's log");
   REQUIRE_FALSE(fs::exists(folder / "run.h5"));

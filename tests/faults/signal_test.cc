@@ -114,7 +114,7 @@ class Child {
   size_t consumed_ = 0;
 };
 
-// A progress line of the command (tools/progress.cc, not a terminal: one line
+// A progress line of the command (sim/progress.cc, not a terminal: one line
 // per tenth) at `percent` or beyond.
 std::function<bool(const std::string&)> ProgressAtLeast(const std::string& label, int percent) {
   return [=](const std::string& line) {

@@ -16,10 +16,10 @@
 #include "io/h5_file.h"
 #include "io/registration_file.h"
 #include "io/scene.h"
+#include "pipeline/run_scene.h"
 #include "tests/support/h5_plain.h"
 #include "tests/support/tiny_phantom.h"
 #include "tests/support/window_errors.h"
-#include "tools/run/run_job.h"
 
 namespace dg::pipeline {
 namespace {
@@ -70,14 +70,14 @@ double MeanOverFramesOf(const DroppingRun& run, const std::vector<double>& error
 }
 
 DroppingRun RunDropping(const std::string& name, const std::set<std::int64_t>& drops) {
-  tools::RunOptions options;
+  RunOptions options;
   options.scene = TruthRegisteredScene();
   options.out_dir = TinyPhantomDir() + "/drops-" + name;
   options.threads = 2;
   options.video = false;
   options.progress = false;
   options.graph.drop_frames = drops;
-  const tools::RunOutcome outcome = tools::RunScene(options);  // throws if the simulation failed
+  const RunOutcome outcome = RunScene(options);  // throws if the simulation failed
   REQUIRE(outcome.statistics.complete);
   const hid_t file = H5Fopen(outcome.log_path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
   REQUIRE(file >= 0);

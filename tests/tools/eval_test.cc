@@ -9,14 +9,14 @@
 
 #include <catch2/catch.hpp>
 
-#include "tests/support/h5_plain.h"
-#include "tests/support/tiny_phantom.h"
-#include "tests/support/window_errors.h"
 #include "io/h5_file.h"
 #include "io/registration_file.h"
 #include "io/scene.h"
+#include "pipeline/run_scene.h"
+#include "tests/support/h5_plain.h"
+#include "tests/support/tiny_phantom.h"
+#include "tests/support/window_errors.h"
 #include "tools/eval/protocol.h"
-#include "tools/run/run_job.h"
 
 namespace dg::tools {
 namespace {
@@ -138,13 +138,13 @@ TEST_CASE("eval protocol: a report of one run has no figures for the modes it di
   REQUIRE(at != std::string::npos);
   text.replace(at, 25, "registration:\n  file: single_registration.yaml");
   std::ofstream(dir + "/scene_single.yaml") << text;
-  RunOptions run;
+  pipeline::RunOptions run;
   run.scene = dir + "/scene_single.yaml";
   run.out_dir = dg::testing::TinyPhantomDir() + "/single/run";
   run.threads = 2;
   run.video = false;
   run.progress = false;
-  RunScene(run);
+  pipeline::RunScene(run);
   const std::string out = dg::testing::TinyPhantomDir() + "/single_report";
   const ProtocolResult result = ReadProtocolLogs(dg::testing::TinyPhantomDir() + "/single", 3);
   WriteProtocolReport(result, out);

@@ -15,11 +15,11 @@
 
 #include <catch2/catch.hpp>
 
+#include "pipeline/run_scene.h"
 #include "tests/io/xml_well_formed.h"
 #include "tests/support/h5_plain.h"
 #include "tests/support/text_file.h"
 #include "tests/support/tiny_phantom.h"
-#include "tools/run/run_job.h"
 
 namespace dg::tools {
 namespace {
@@ -52,8 +52,8 @@ bool Exists(hid_t file, const std::string& path) {
 }
 
 // A quick run of a tiny phantom scene: two threads, no progress, no video.
-RunOptions TinyRun(const std::string& scene, const std::string& out_dir) {
-  RunOptions options;
+pipeline::RunOptions TinyRun(const std::string& scene, const std::string& out_dir) {
+  pipeline::RunOptions options;
   options.scene = scene;
   options.out_dir = out_dir;
   options.threads = 2;
@@ -124,9 +124,9 @@ std::vector<long long> ParaViewCounts(const std::string& xmf_path) {
 // and finite; the .xmf names only datasets of the .h5.
 TEST_CASE("run: --mesh-series writes the simulated mesh per frame, as the run log records it",
           "[tools][integration]") {
-  RunOptions options = TinyRun(TinyPhantomDir() + "/scene.yaml", TinyPhantomDir() + "/run_mesh_series");
+  pipeline::RunOptions options = TinyRun(TinyPhantomDir() + "/scene.yaml", TinyPhantomDir() + "/run_mesh_series");
   options.mesh_series = true;
-  const RunOutcome outcome = RunScene(options);
+  const pipeline::RunOutcome outcome = pipeline::RunScene(options);
   REQUIRE(outcome.mesh_series_path == options.out_dir + "/mesh_series.xmf");
 
   const hid_t log = H5Fopen(outcome.log_path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
@@ -243,8 +243,8 @@ TEST_CASE("run: the mesh series in surface mode, by default, and refused without
   const size_t mode = text.find("  mode: combined");
   REQUIRE(mode != std::string::npos);
   std::ofstream(dir + "/scene_surface.yaml") << text.replace(mode, 16, "  mode: surface");
-  RunOptions options = TinyRun(dir + "/scene_surface.yaml", dir + "/run_mesh_series_surface");
-  const RunOutcome outcome = RunScene(options);
+  pipeline::RunOptions options = TinyRun(dir + "/scene_surface.yaml", dir + "/run_mesh_series_surface");
+  const pipeline::RunOutcome outcome = pipeline::RunScene(options);
   REQUIRE(outcome.mesh_series_path == options.out_dir + "/mesh_series.xmf");
   const hid_t file = H5Fopen((options.out_dir + "/mesh_series.h5").c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
   REQUIRE(file >= 0);
@@ -268,7 +268,7 @@ TEST_CASE("run: the mesh series in surface mode, by default, and refused without
   options.scene = dir + "/scene_no_simulation.yaml";
   options.out_dir = dir + "/run_no_simulation";
   options.mesh_series = true;
-  REQUIRE_THROWS_WITH(RunScene(options), Catch::Contains("--mesh-series asks for the simulated mesh") &&
+  REQUIRE_THROWS_WITH(pipeline::RunScene(options), Catch::Contains("--mesh-series asks for the simulated mesh") &&
                                              Catch::Contains("add a simulation: block"));
 }
 

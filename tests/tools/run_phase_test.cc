@@ -11,8 +11,8 @@
 #include <catch2/catch.hpp>
 
 #include "io/h5_file.h"
+#include "pipeline/run_scene.h"
 #include "tools/phantom/phantom_generator.h"
-#include "tools/run/run_job.h"
 
 namespace dg::tools {
 namespace {
@@ -42,13 +42,13 @@ TEST_CASE("run: the live phase follows an irregular beat better than the constan
   spec.period_variation = 0.10;
   phantom::GeneratePhantom(spec, dir.string(), false);
 
-  RunOptions options;
+  pipeline::RunOptions options;
   options.scene = (dir / "scene.yaml").string();
   options.out_dir = (dir / "run").string();
   options.threads = 2;
   options.progress = false;
   options.video = false;
-  const RunOutcome outcome = RunScene(options);
+  const pipeline::RunOutcome outcome = pipeline::RunScene(options);
   REQUIRE(outcome.statistics.complete);
 
   const io::H5Reader log(outcome.log_path), truth((dir / "truth.h5").string());

@@ -17,13 +17,13 @@
 #include <opencv2/videoio.hpp>
 
 #include "io/registration_file.h"
+#include "pipeline/run_scene.h"
 #include "sim/error.h"
 #include "tests/support/h5_plain.h"
 #include "tests/support/text_file.h"
 #include "tests/support/tiny_phantom.h"
 #include "tools/report/saved_run.h"
 #include "tools/report/timing_plot.h"
-#include "tools/run/run_job.h"
 
 namespace dg::tools {
 namespace {
@@ -50,12 +50,12 @@ cv::Mat VideoFrame(const std::string& video_path, int frame) {
 }  // namespace
 
 TEST_CASE("run: the tiny phantom end to end, and its report", "[tools][integration]") {
-  RunOptions options;
+  pipeline::RunOptions options;
   options.scene = TinyPhantomDir() + "/scene.yaml";
   options.out_dir = TinyPhantomDir() + "/run";
   options.threads = 2;
   options.progress = false;
-  const RunOutcome outcome = RunScene(options);
+  const pipeline::RunOutcome outcome = pipeline::RunScene(options);
   const int frames = 30;  // the tiny preset's video: 1 s at 30 fps
   REQUIRE(outcome.statistics.frames == frames);
   REQUIRE(outcome.statistics.complete);
@@ -141,7 +141,7 @@ TEST_CASE("run: the tiny phantom end to end, and its report", "[tools][integrati
 // overlay tests' (stages/overlay, pipeline/overlay_branch): in an offline run
 // on the tiny phantom they join the video at a rate that depends on the machine.
 TEST_CASE("run: side by side, the video and the snapshots show both eyes", "[tools][integration]") {
-  RunOptions options;
+  pipeline::RunOptions options;
   options.scene = TinyPhantomDir() + "/scene.yaml";
   options.out_dir = TinyPhantomDir() + "/run_side_by_side";
   options.threads = 2;
@@ -149,7 +149,7 @@ TEST_CASE("run: side by side, the video and the snapshots show both eyes", "[too
   options.video_layout = pipeline::VideoLayout::kSideBySide;
   const int snapshot = 5;  // registered on frame 19
   options.snapshots = {snapshot};
-  const RunOutcome outcome = RunScene(options);
+  const pipeline::RunOutcome outcome = pipeline::RunScene(options);
   const cv::Size eye(160, 120);  // the tiny preset's
   cv::VideoCapture video(outcome.video_path);
   REQUIRE(video.get(cv::CAP_PROP_FRAME_WIDTH) == 2 * eye.width);
@@ -214,12 +214,12 @@ TEST_CASE("run: a failing stage leaves a readable log marked incomplete", "[tool
   text.replace(text.find(length), length.size(), "  frames: 12\n");
   std::ofstream(dir + "/scene_sequence.yaml") << text;
 
-  RunOptions options;
+  pipeline::RunOptions options;
   options.scene = dir + "/scene_sequence.yaml";
   options.out_dir = dir + "/run_failing";
   options.threads = 2;
   options.progress = false;
-  REQUIRE_THROWS_WITH(RunScene(options), Catch::Contains("stage 'capture' failed at frame 7"));
+  REQUIRE_THROWS_WITH(pipeline::RunScene(options), Catch::Contains("stage 'capture' failed at frame 7"));
 
   const std::string log = options.out_dir + "/run.h5";
   const hid_t file = H5Fopen(log.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);

@@ -6,21 +6,21 @@
 #include <tbb/global_control.h>
 #include <tbb/info.h>
 
+#include "pipeline/machine_info.h"
 #include "tools/bench/overlay_bench.h"
 #include "tools/bench/pipeline_bench.h"
-#include "tools/bench/run_bench.h"
 #include "tools/bench/register_bench.h"
+#include "tools/bench/run_bench.h"
 #include "tools/bench/sim_bench.h"
 #include "tools/bench/vision_bench.h"
 #include "tools/commands.h"
-#include "tools/machine_info.h"
 #include "tools/preop/preop_bench.h"
 
 namespace dg::tools {
 namespace {
 
 void PrintMachine() {
-  const MachineInfo machine = ReadMachineInfo();
+  const pipeline::MachineInfo machine = pipeline::ReadMachineInfo();
   std::printf("machine: %s, %d logical cores, %s, %s\n", machine.cpu_model.c_str(), machine.logical_cores,
               machine.simd.c_str(), machine.compiler.c_str());
 }

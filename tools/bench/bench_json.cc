@@ -2,16 +2,17 @@
 
 #include <fstream>
 
+#include "pipeline/machine_info.h"
 #include "sim/error.h"
 #include "tools/json_text.h"
-#include "tools/machine_info.h"
+#include "tools/provenance.h"
 
 namespace dg::tools {
 
 void WriteBenchJson(const std::string& path, const std::vector<std::string>& record_fields) {
   std::ofstream out(path);
   if (!out) throw Error("cannot write benchmark results", path, "check the directory exists and is writable");
-  const MachineInfo machine = ReadMachineInfo();
+  const pipeline::MachineInfo machine = pipeline::ReadMachineInfo();
   const RunProvenance run = ReadRunProvenance();
   const std::string machine_fields =
       Printed("\"cpu\": %s, \"logical_cores\": %d, \"simd\": %s, \"compiler\": %s, \"commit\": %s, \"date\": %s, "

@@ -6,11 +6,12 @@
 
 #include <unistd.h>
 
+#include "pipeline/run_scene.h"
 #include "sim/statistics.h"
 #include "tools/bench/bench_json.h"
 #include "tools/bench/pipeline_bench.h"
 #include "tools/json_text.h"
-#include "tools/run/run_job.h"
+#include "tools/run/default_scene.h"
 
 namespace dg::tools {
 namespace {
@@ -38,14 +39,14 @@ std::vector<RunBenchRecord> RunRunBench(const RunBenchOptions& options, bool pro
         std::fprintf(stderr, "bench run: %s, %d threads, run %d of %d\n", pipeline::PolicyName(policy),
                      options.threads, repeat + 1, options.repeats);
       }
-      RunOptions run;
-      run.scene = options.scene;
+      pipeline::RunOptions run;
+      run.scene = options.scene.empty() ? DefaultScenePath(progress) : options.scene;
       run.out_dir = scratch.string();
       run.threads = options.threads;
       run.graph.policy = policy;
       run.video = false;
       run.progress = false;
-      const RunOutcome outcome = RunScene(run);
+      const pipeline::RunOutcome outcome = pipeline::RunScene(run);
       records.push_back({policy, options.threads, repeat, outcome.statistics, outcome.simulated_frames});
     }
   }

@@ -13,13 +13,13 @@
 #include "io/h5_file.h"
 #include "io/registration_file.h"
 #include "io/scene.h"
+#include "pipeline/run_scene.h"
 #include "sim/error.h"
 #include "sim/statistics.h"
 #include "tools/job_program.h"
 #include "tools/json_text.h"
 #include "tools/report/line_plot.h"
 #include "tools/run/default_scene.h"
-#include "tools/run/run_job.h"
 
 namespace dg::tools {
 namespace {
@@ -215,7 +215,7 @@ ProtocolResult RunProtocol(const ProtocolOptions& options) {
     }
     const std::string& name = scene.name;
     for (const std::string& mode : ProtocolModes()) {
-      RunOptions run;
+      pipeline::RunOptions run;
       run.scene = WriteModeScene(scene, mode, options);
       run.out_dir = runs_dir + "/" + name + "/" + mode;
       run.threads = options.threads;
@@ -228,7 +228,7 @@ ProtocolResult RunProtocol(const ProtocolOptions& options) {
         continue;
       }
       if (options.progress) std::fprintf(stderr, "eval protocol: %s, %s mode\n", name.c_str(), mode.c_str());
-      RunScene(run);
+      pipeline::RunScene(run);
     }
   }
   if (jobs.is_open()) return {};

@@ -13,6 +13,7 @@
 #include "io/gmsh_reader.h"
 #include "io/h5_file.h"
 #include "io/scene.h"
+#include "pipeline/run_scene.h"
 #include "sim/error.h"
 #include "sim/stability.h"
 #include "sim/tled_solver.h"
@@ -21,7 +22,6 @@
 #include "tools/job_program.h"
 #include "tools/report/saved_run.h"
 #include "tools/run/default_scene.h"
-#include "tools/run/run_job.h"
 
 namespace dg::tools {
 namespace {
@@ -281,7 +281,7 @@ RuntimeResult RunRuntimeSweep(const RuntimeOptions& options) {
                    done > 0 ? (", about " + Duration(elapsed_s / done * (runnable - done)) + " to go").c_str() : "");
     }
     const double load_average = LoadAverage();
-    RunOptions run;
+    pipeline::RunOptions run;
     run.scene = plan.scene;
     run.out_dir = dir;
     run.threads = plan.point.threads;
@@ -290,7 +290,7 @@ RuntimeResult RunRuntimeSweep(const RuntimeOptions& options) {
     run.progress = options.progress;
     std::string error;
     try {
-      RunScene(run);
+      pipeline::RunScene(run);
     } catch (const Error& e) {
       // One failed point (e.g. a blow-up the estimate did not foresee) is a finding, not the end of the sweep.
       error = e.what();

@@ -17,8 +17,8 @@
 #include "io/h5_file.h"
 #include "sim/error.h"
 #include "sim/log.h"
+#include "sim/progress.h"
 #include "tools/job_program.h"
-#include "tools/progress.h"
 
 namespace dg::tools {
 namespace {

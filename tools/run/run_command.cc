@@ -4,16 +4,17 @@
 
 #include <CLI/CLI.hpp>
 
+#include "pipeline/run_scene.h"
 #include "pipeline/stop_request.h"
 #include "sim/error.h"
 #include "tools/commands.h"
-#include "tools/run/run_job.h"
+#include "tools/run/default_scene.h"
 
 namespace dg::tools {
 namespace {
 
 struct RunArguments {
-  RunOptions options;
+  pipeline::RunOptions options;
   std::string policy = "offline";
   std::string video_layout = "left";
   std::string frames;
@@ -52,7 +53,7 @@ void ParseDropFrames(const std::vector<std::string>& items, pipeline::GraphOptio
 }
 
 void RunRunCommand(RunArguments& args) {
-  RunOptions& options = args.options;
+  pipeline::RunOptions& options = args.options;
   options.graph.policy = pipeline::ParsePolicy(args.policy);
   if (!args.frames.empty()) ParseFrameRange(args.frames, &options.graph);
   ParseDropFrames(args.drop, &options.graph);
@@ -61,12 +62,13 @@ void RunRunCommand(RunArguments& args) {
   if (args.mesh_series || args.no_mesh_series) options.mesh_series = args.mesh_series;
   options.video_layout =
       args.video_layout == "side_by_side" ? pipeline::VideoLayout::kSideBySide : pipeline::VideoLayout::kLeft;
+  if (options.scene.empty()) options.scene = DefaultScenePath(options.progress);
   if (args.print_graph) {
-    std::fputs(DescribeRunGraph(options).c_str(), stdout);
+    std::fputs(pipeline::DescribeRunGraph(options).c_str(), stdout);
     return;
   }
   pipeline::InstallStopOnSignals();  // a signal stops the run with its outputs finished (docs/interrupts.md)
-  const RunOutcome outcome = RunScene(options);
+  const pipeline::RunOutcome outcome = pipeline::RunScene(options);
   std::printf("dynaguide run: %s\n%s", outcome.log_path.c_str(), outcome.statistics.Text().c_str());
   if (!outcome.registration_path.empty()) {
     std::printf("registration: %s (a scene reuses it as registration: {file: ...})\n", outcome.registration_path.c_str());
@@ -119,7 +121,7 @@ void AddRunCommand(CLI::App& app) {
       "--mesh-series", args->mesh_series,
       "Write the simulated mesh per frame as mesh_series.xmf + .h5 (XDMF, for ParaView): displacement, tied nodes "
       "and recovered forces (default: on when the frames read x the mesh's nodes are at most " +
-          std::to_string(kMeshSeriesDefaultNodeFrames) + ")");
+          std::to_string(pipeline::kMeshSeriesDefaultNodeFrames) + ")");
   command->add_flag("--no-mesh-series", args->no_mesh_series, "Do not write the mesh series")->excludes(mesh_series);
   command->add_option("--video-layout", args->video_layout,
                       "left (the left frame, W x H) | side_by_side (left and right frames, 2W x H, each with its "

@@ -17,9 +17,9 @@
 #include "sim/element_measures.h"
 #include "sim/error.h"
 #include "sim/log.h"
+#include "sim/progress.h"
 #include "sim/tled_solver.h"
 #include "tools/json_text.h"
-#include "tools/progress.h"
 
 namespace dg::tools {
 namespace {

@@ -7,7 +7,7 @@
 
 #include "pipeline/stop_request.h"
 #include "sim/error.h"
-#include "tools/progress.h"
+#include "sim/progress.h"
 #include "tools/track/track_table.h"
 
 namespace dg::tools {

@@ -10,23 +10,23 @@
 #include "pipeline/scene_graph.h"
 #include "pipeline/stage_graph.h"
 
-namespace dg::tools {
+namespace dg::pipeline {
 
 struct RunOptions {
-  std::string scene;                // empty: the built-in default scene
+  std::string scene;                // the scene file (io/scene.h); required
   std::string out_dir = "out/run";  // run.h5 and annotated.avi go here
   int threads = 0;                  // 0: all cores
-  pipeline::GraphOptions graph;     // policy, frames in flight, frame range
-  pipeline::FrontEndSettings front_end;
+  GraphOptions graph;     // policy, frames in flight, frame range
+  FrontEndSettings front_end;
   bool video = true;     // write the annotated video
   // The annotated video's and the snapshots' layout; side by side also draws
   // and composes the right eye's overlays (a left-only run does not).
-  pipeline::VideoLayout video_layout = pipeline::VideoLayout::kLeft;
+  VideoLayout video_layout = VideoLayout::kLeft;
   // Frames written as PNG (composite_<frame>.png: the overlaid frame, in video_layout).
   std::vector<std::int64_t> snapshots;
   bool progress = true;  // progress lines on stderr
   // The simulated mesh per frame as mesh_series.xmf + mesh_series.h5
-  // (pipeline::MeshSeriesSink). Unset: written when the frames the run reads
+  // (MeshSeriesSink). Unset: written when the frames the run reads
   // times the mesh's nodes are at most kMeshSeriesDefaultNodeFrames.
   std::optional<bool> mesh_series;
 };
@@ -37,7 +37,7 @@ struct RunOptions {
 inline constexpr std::int64_t kMeshSeriesDefaultNodeFrames = 1'000'000;
 
 struct RunOutcome {
-  pipeline::RunStatistics statistics;
+  RunStatistics statistics;
   std::string log_path, video_path;
   std::string registration_path;  // registration.yaml, when the run registered the scan itself
   std::string mesh_series_path;   // mesh_series.xmf, when the run wrote the mesh series
@@ -50,17 +50,18 @@ struct RunOutcome {
 std::vector<std::string> RunOutputNames();
 
 // The graph a run would build, as text (`dynaguide run --print-graph`).
+// @throws dg::Error as io::ReadScene, or when options.scene is empty.
 std::string DescribeRunGraph(const RunOptions& options);
 
 // `dynaguide run`: streams the scene's recording through its graph, writing
 // the HDF5 run log, the annotated video, the mesh series (RunOptions::mesh_series)
 // and (when the run registered the scan itself) registration.yaml into out_dir, which it holds for the run
 // (io::OutputFolderClaim: a second process writing there is refused).
-// @throws dg::Error for a bad scene or options before the run (a mesh series
+// @throws dg::Error for a bad scene or options before the run (no scene, a mesh series
 // asked for in a scene without simulation), and, after the
 // outputs are flushed and marked incomplete, when a stage failed (naming the
 // stage and the frame).
-// @throws pipeline::Interrupted, after the same, when a signal stopped the run.
+// @throws Interrupted, after the same, when a signal stopped the run.
 RunOutcome RunScene(const RunOptions& options);
 
-}  // namespace dg::tools
+}  // namespace dg::pipeline

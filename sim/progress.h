@@ -3,7 +3,7 @@
 #include <chrono>
 #include <string>
 
-namespace dg::tools {
+namespace dg {
 
 // Progress of a long job on stderr: a line rewritten in place on a terminal,
 // otherwise a plain line at every tenth of the work (so CI logs stay short).
@@ -22,4 +22,4 @@ class Progress {
   std::chrono::steady_clock::time_point start_, last_draw_;
 };
 
-}  // namespace dg::tools
+}  // namespace dg

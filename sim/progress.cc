@@ -1,10 +1,10 @@
-#include "tools/progress.h"
+#include "sim/progress.h"
 
 #include <unistd.h>
 
 #include <cstdio>
 
-namespace dg::tools {
+namespace dg {
 
 Progress::Progress(std::string label, double total, bool enabled)
     : label_(std::move(label)),
@@ -37,4 +37,4 @@ void Progress::Finish() {
   if (enabled_ && terminal_) std::fprintf(stderr, "\n");
 }
 
-}  // namespace dg::tools
+}  // namespace dg

@@ -1,4 +1,4 @@
-#include "tools/run/run_job.h"
+#include "pipeline/run_scene.h"
 
 #include <algorithm>
 #include <cstdio>
@@ -15,6 +15,7 @@
 #include "io/scene.h"
 #include "pipeline/annotated_video.h"
 #include "pipeline/error_log.h"
+#include "pipeline/machine_info.h"
 #include "pipeline/mesh_series_sink.h"
 #include "pipeline/overlay_log.h"
 #include "pipeline/phase_log.h"
@@ -24,33 +25,28 @@
 #include "stages/register/fiducial_motion.h"
 #include "sim/error.h"
 #include "sim/log.h"
-#include "tools/machine_info.h"
-#include "tools/progress.h"
-#include "tools/run/default_scene.h"
+#include "sim/progress.h"
 
-namespace dg::tools {
+namespace dg::pipeline {
 namespace {
 
 namespace fs = std::filesystem;
 
-std::string ScenePath(const RunOptions& options) {
-  return options.scene.empty() ? DefaultScenePath(options.progress) : options.scene;
+const std::string& ScenePath(const RunOptions& options) {
+  if (options.scene.empty()) {
+    throw Error("no scene given to run", "RunOptions::scene", "name a scene file (docs/formats/scene.md)");
+  }
+  return options.scene;
 }
 
-std::string MachineText(int threads) {
-  const MachineInfo machine = ReadMachineInfo();
-  return machine.cpu_model + ", " + std::to_string(machine.logical_cores) + " logical cores (" +
-         std::to_string(threads) + " used), " + machine.simd + ", " + machine.compiler;
-}
-
-pipeline::SceneGraph BuildRunGraph(const io::Scene& scene, const RunOptions& options) {
-  pipeline::OverlaySettings overlays;
-  overlays.right_eye = options.video_layout == pipeline::VideoLayout::kSideBySide;
-  return pipeline::BuildSceneGraph(scene, options.graph, options.front_end, overlays);
+SceneGraph BuildRunGraph(const io::Scene& scene, const RunOptions& options) {
+  OverlaySettings overlays;
+  overlays.right_eye = options.video_layout == VideoLayout::kSideBySide;
+  return BuildSceneGraph(scene, options.graph, options.front_end, overlays);
 }
 
 // Frames the run will take from the source, for progress: the range, cut by the recording's length.
-std::int64_t FramesInRange(const pipeline::GraphOptions& graph, int recording_frames) {
+std::int64_t FramesInRange(const GraphOptions& graph, int recording_frames) {
   const std::int64_t end = graph.end_frame >= 0 ? std::min<std::int64_t>(graph.end_frame, recording_frames)
                                                 : recording_frames;
   return std::max<std::int64_t>(0, end - graph.first_frame);
@@ -72,7 +68,7 @@ void CheckSnapshots(const RunOptions& options, int recording_frames) {
 // Whether the run writes the mesh series: as asked, else when frames x nodes
 // stays within kMeshSeriesDefaultNodeFrames.
 // @throws dg::Error when asked for in a scene without simulation.
-bool WantsMeshSeries(const RunOptions& options, const pipeline::SceneGraph& built, const std::string& scene_path,
+bool WantsMeshSeries(const RunOptions& options, const SceneGraph& built, const std::string& scene_path,
                      int recording_frames) {
   if (!built.simulation) {
     if (options.mesh_series.value_or(false)) {
@@ -84,7 +80,7 @@ bool WantsMeshSeries(const RunOptions& options, const pipeline::SceneGraph& buil
   if (options.mesh_series) return *options.mesh_series;
   const std::int64_t node_frames = FramesInRange(options.graph, recording_frames) * built.simulation->mesh.num_nodes();
   const bool on = node_frames <= kMeshSeriesDefaultNodeFrames;
-  Logger("tools").info("mesh series {}: {} frames x {} nodes is {} the default's bound of {} ({} to choose)",
+  Logger("pipeline").info("mesh series {}: {} frames x {} nodes is {} the default's bound of {} ({} to choose)",
                      on ? "written" : "not written", FramesInRange(options.graph, recording_frames),
                      built.simulation->mesh.num_nodes(), on ? "within" : "above", kMeshSeriesDefaultNodeFrames,
                      on ? "--no-mesh-series" : "--mesh-series");
@@ -107,8 +103,8 @@ RunOutcome RunScene(const RunOptions& options) {
   const int threads = options.threads > 0 ? options.threads : tbb::info::default_concurrency();
   tbb::global_control parallelism(tbb::global_control::max_allowed_parallelism, threads);
   const io::Scene scene = io::ReadScene(ScenePath(options));
-  pipeline::SceneGraph built = BuildRunGraph(scene, options);
-  const pipeline::PacketSource& source = built.graph->source();
+  SceneGraph built = BuildRunGraph(scene, options);
+  const PacketSource& source = built.graph->source();
   CheckSnapshots(options, source.frame_count());
   const bool write_mesh_series = WantsMeshSeries(options, built, scene.path, source.frame_count());
 
@@ -118,54 +114,54 @@ RunOutcome RunScene(const RunOptions& options) {
   if (!claim.removed().empty()) {
     std::string names;
     for (const std::string& name : claim.removed()) names += (names.empty() ? "" : ", ") + name;
-    Logger("tools").info("removed what an earlier run left in {}: {}", options.out_dir, names);
+    Logger("pipeline").info("removed what an earlier run left in {}: {}", options.out_dir, names);
   }
   RunOutcome outcome;
   outcome.log_path = (fs::path(options.out_dir) / "run.h5").string();
   io::RunLog log(outcome.log_path, scene.text,
-                 {DG_VERSION, pipeline::PolicyName(options.graph.policy), MachineText(threads), threads, source.fps()},
+                 {DG_VERSION, PolicyName(options.graph.policy), DescribeMachine(threads), threads, source.fps()},
                  built.graph->stage_names());
 
-  std::vector<pipeline::RunLogSink::Consumer> consumers;
-  pipeline::SimulationLog simulation_log(log, built.simulation, built.given_registration);
-  consumers.push_back([&](const pipeline::FramePacket& packet) { simulation_log.Consume(packet); });
-  std::optional<pipeline::PhaseLog> phase_log;
+  std::vector<RunLogSink::Consumer> consumers;
+  SimulationLog simulation_log(log, built.simulation, built.given_registration);
+  consumers.push_back([&](const FramePacket& packet) { simulation_log.Consume(packet); });
+  std::optional<PhaseLog> phase_log;
   if (built.live_phase) {
     phase_log.emplace(log, scene.truth);
-    consumers.push_back([&](const pipeline::FramePacket& packet) { phase_log->Consume(packet); });
+    consumers.push_back([&](const FramePacket& packet) { phase_log->Consume(packet); });
   }
-  std::optional<pipeline::ErrorLog> error_log;
+  std::optional<ErrorLog> error_log;
   if (built.simulation && !scene.truth.empty()) {
     error_log.emplace(log, scene.truth, built.simulation->mesh, built.calibration.left,
                       scene.preoperative ? stages::ReadFiducialMotion(scene.preoperative->motion)
                                          : stages::FiducialMotion{});
-    consumers.push_back([&](const pipeline::FramePacket& packet) { error_log->Consume(packet); });
+    consumers.push_back([&](const FramePacket& packet) { error_log->Consume(packet); });
   }
-  std::optional<pipeline::MeshSeriesSink> mesh_series;
+  std::optional<MeshSeriesSink> mesh_series;
   if (write_mesh_series) {
     mesh_series.emplace((fs::path(options.out_dir) / "mesh_series").string(), built.simulation);
-    consumers.push_back([&](const pipeline::FramePacket& packet) { mesh_series->Consume(packet); });
+    consumers.push_back([&](const FramePacket& packet) { mesh_series->Consume(packet); });
   }
-  std::optional<pipeline::OverlayLog> overlay_log;
+  std::optional<OverlayLog> overlay_log;
   if (!built.overlays.empty()) {
     overlay_log.emplace(log, built.overlays);
-    consumers.push_back([&](const pipeline::FramePacket& packet) { overlay_log->Consume(packet); });
+    consumers.push_back([&](const FramePacket& packet) { overlay_log->Consume(packet); });
   }
-  std::optional<pipeline::AnnotatedVideo> video;
+  std::optional<AnnotatedVideo> video;
   if (options.video) {
     outcome.video_path = (fs::path(options.out_dir) / "annotated.avi").string();
     const cv::Size size(built.calibration.left.width, built.calibration.left.height);
     video.emplace(outcome.video_path, source.fps(), size, options.video_layout, options.graph.policy);
-    consumers.push_back([&video](const pipeline::FramePacket& packet) { video->Add(packet); });
+    consumers.push_back([&video](const FramePacket& packet) { video->Add(packet); });
   }
   if (!options.snapshots.empty()) {
-    consumers.push_back([&options](const pipeline::FramePacket& packet) {
+    consumers.push_back([&options](const FramePacket& packet) {
       if (std::find(options.snapshots.begin(), options.snapshots.end(), packet.index) == options.snapshots.end()) return;
       char name[64];
       std::snprintf(name, sizeof name, "composite_%05lld.png", static_cast<long long>(packet.index));
       const std::string path = (fs::path(options.out_dir) / name).string();
       cv::Mat picture;
-      pipeline::ArrangePicture(packet, options.video_layout, &picture);
+      ArrangePicture(packet, options.video_layout, &picture);
       if (!cv::imwrite(path, picture)) {
         throw Error("cannot write the snapshot", path, "check the output directory is writable");
       }
@@ -174,20 +170,20 @@ RunOutcome RunScene(const RunOptions& options) {
   Progress progress("run", static_cast<double>(FramesInRange(options.graph, source.frame_count())), options.progress);
   std::int64_t done = 0;
   const auto start = std::chrono::steady_clock::now();
-  consumers.push_back([&](const pipeline::FramePacket&) {
+  consumers.push_back([&](const FramePacket&) {
     const double elapsed_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     char rate[64];
     std::snprintf(rate, sizeof rate, "%.1f frames/s", ++done / std::max(elapsed_s, 1e-9));
     progress.Update(static_cast<double>(done), rate);
   });
 
-  pipeline::RunLogSink sink(log, std::move(consumers));
-  const pipeline::GraphRunResult result = built.graph->Run(sink);
+  RunLogSink sink(log, std::move(consumers));
+  const GraphRunResult result = built.graph->Run(sink);
   progress.Finish();
   if (overlay_log) {
     overlay_log->Finish(result.start_steady_ns);
     if (const std::string missing = overlay_log->MissingOverlays(); !missing.empty()) {
-      Logger("tools").warn("{}; the overlays draw beside the frames at their own pace, and this range ended first "
+      Logger("pipeline").warn("{}; the overlays draw beside the frames at their own pace, and this range ended first "
                          "(run a longer range, or in real time)", missing);
     }
   }
@@ -195,7 +191,7 @@ RunOutcome RunScene(const RunOptions& options) {
     video->Close();
     outcome.video_frames_dropped = static_cast<std::int64_t>(video->dropped());
   }
-  outcome.statistics = pipeline::Summarize(sink.timings(), built.graph->stage_names(), result.frames_dropped,
+  outcome.statistics = Summarize(sink.timings(), built.graph->stage_names(), result.frames_dropped,
                                            result.wall_s, source.fps(), result.complete);
   log.file().WriteAttribute("/", "frames", result.frames_done);
   log.file().WriteAttribute("/", "frames_dropped", result.frames_dropped);
@@ -218,16 +214,16 @@ RunOutcome RunScene(const RunOptions& options) {
         log.Finish(false, e.what());
         throw;
       }
-      Logger("tools").warn("the mesh series could not be marked incomplete: {}", e.what());
+      Logger("pipeline").warn("the mesh series could not be marked incomplete: {}", e.what());
     }
   }
   if (result.complete && built.simulation && outcome.simulated_frames == 0) {
-    Logger("tools").warn("the video ended before the registration window was full: nothing was simulated "
+    Logger("pipeline").warn("the video ended before the registration window was full: nothing was simulated "
                        "(register over fewer cycles with registration.cycles, or give registration.file)");
   }
   log.Finish(result.complete, result.error);
   if (!result.complete && result.stop_signal != 0) {
-    throw pipeline::Interrupted(result.stop_signal, result.error, outcome.log_path,
+    throw Interrupted(result.stop_signal, result.error, outcome.log_path,
                                 "the frames read are in " + options.out_dir +
                                     " (marked complete = 0); run again for the whole recording");
   }
@@ -238,4 +234,4 @@ RunOutcome RunScene(const RunOptions& options) {
   return outcome;
 }
 
-}  // namespace dg::tools
+}  // namespace dg::pipeline
