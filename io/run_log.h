@@ -27,7 +27,7 @@ struct RunAttributes {
 //   /drops    frame, at_ns (frames the realtime policy dropped)
 // and any further table a stage's sink adds (/tracks, /sim, ...).
 //
-// Life cycle (docs/run_log.md): while open, the file is PATH.part; Close()
+// Life cycle (docs/formats/run_log.md): while open, the file is PATH.part; Close()
 // renames it to PATH, so a reader never takes a log being written, or half of
 // two runs, for a finished one. The root attribute `complete` is 0 until
 // Finish(true); a run that stops early by an error is marked complete=0 with

@@ -1,6 +1,6 @@
 // A full disk, made without root: a child process whose files may not grow
 // past RLIMIT_FSIZE, with SIGXFSZ ignored so that a write past the limit
-// fails with EFBIG as it fails with ENOSPC on a full disk (docs/run_log.md).
+// fails with EFBIG as it fails with ENOSPC on a full disk (docs/formats/run_log.md).
 // The run log keeps every row flushed before the failure, still opens, is
 // marked complete=0 with the cause, and is under its final name; the process
 // exits non-zero with one message naming the cause, the file and the fix, and

@@ -17,7 +17,7 @@ struct PhantomSummary {
   std::string Describe() const;
 };
 
-// Writes the complete scene (see README, "dynaguide phantom") into out_dir,
+// Writes the complete scene (docs/commands/phantom.md) into out_dir,
 // which is created. Deterministic: the same spec writes the same bytes.
 // @throws dg::Error for an invalid spec or a file that cannot be written.
 PhantomSummary GeneratePhantom(const PhantomSpec& spec, const std::string& out_dir, bool progress);
