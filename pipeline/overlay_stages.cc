@@ -1,7 +1,9 @@
 #include "pipeline/overlay_stages.h"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
+#include <span>
 
 #include <opencv2/imgcodecs.hpp>
 
@@ -118,7 +120,7 @@ void OverlayBranch::Drain() {
   if (drawing_.empty()) BuildEyes(Eigen::Isometry3d(geometry.registration->T_C_S));
   // Both eyes drawn before either is offered, so the eyes' composites show the same geometry.
   for (Eye& eye : drawing_) eye.layer = eye.draw(geometry.simulation->nodes_S_m, geometry.frame);
-  for (Eye& eye : drawing_) eye.compositor->Offer(index_, std::move(eye.layer));
+  for (Eye& eye : drawing_) eye.latest->Offer(index_, std::move(eye.layer));
   ++drawn_;
   std::lock_guard lock(timings_mutex_);
   timings_.push_back({geometry.frame, start, SteadyNowNs()});
@@ -166,10 +168,30 @@ OverlayPlan PlanOverlays(const io::Scene& scene, std::shared_ptr<const Simulatio
   return plan;
 }
 
+CompositeAdapter::CompositeAdapter(std::shared_ptr<const overlay::Compositor> compositor,
+                                   std::shared_ptr<const LatestLayers> left, std::shared_ptr<const LatestLayers> right)
+    : compositor_(std::move(compositor)), left_(std::move(left)), right_(std::move(right)) {
+  const int entries = static_cast<int>(compositor_->options().layers.size());
+  for (const LatestLayers* eye : {left_.get(), right_.get()}) {
+    if (eye && eye->overlays() != entries) {
+      throw Error("an eye's newest layers hold " + std::to_string(eye->overlays()) + " overlays, the compositor composes " +
+                      std::to_string(entries),
+                  "composite stage", "build the eyes' mailboxes from the compositor's options");
+    }
+  }
+}
+
 void CompositeAdapter::Process(FramePacket& packet) {
-  left_->Compose(packet.raw.left, packet.index, &packet.composite, &packet.layer_age_frames);
+  // On the stack: the frame allocates nothing here. The headers share the
+  // layers' pixels, which keeps them alive while this frame composes.
+  std::array<overlay::OverlayLayer, overlay::CompositorOptions::kMaxLayers> held;
+  const std::span<overlay::OverlayLayer> layers(held.data(), compositor_->options().layers.size());
+  left_->Take(layers);
+  compositor_->Compose(packet.raw.left, packet.index, layers, &packet.composite, &packet.layer_age_frames);
+  if (!right_) return;
   // The right eye's ages are not logged: its layers come from the same draws as the left's.
-  if (right_) right_->Compose(packet.raw.right, packet.index, &packet.composite_right, nullptr);
+  right_->Take(layers);
+  compositor_->Compose(packet.raw.right, packet.index, layers, &packet.composite_right, nullptr);
 }
 
 }  // namespace dg::pipeline

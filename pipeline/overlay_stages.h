@@ -12,6 +12,7 @@
 
 #include "io/calibration.h"
 #include "io/scene.h"
+#include "pipeline/latest_layers.h"
 #include "pipeline/packet_stage.h"
 #include "pipeline/simulation_stages.h"
 #include "pipeline/spsc_ring.h"
@@ -23,10 +24,11 @@ namespace dg::pipeline {
 
 // The overlays of a run (paper section 2.7): each one a
 // side branch fed by the FEM stage through its own SPSC ring, drawing the
-// newest geometry at its own pace and handing its layer to the compositor;
-// the composite stage lays the newest layers over each video frame. A stereo
-// run (side-by-side video) has a compositor per eye, and each branch draws
-// both eyes; a left-only run draws and composes the left eye alone.
+// newest geometry at its own pace and handing its layer to its eye's
+// newest-layer mailbox (pipeline/latest_layers.h); the composite stage lays
+// the newest layers over each video frame. A stereo run (side-by-side video)
+// has a mailbox per eye, and each branch draws both eyes; a left-only run
+// draws and composes the left eye alone.
 
 // Draws one frame's layer from the simulated nodes (scan frame).
 using OverlayDraw = std::function<stages::overlay::OverlayLayer(const Eigen::Matrix3Xd& nodes_S, std::int64_t frame)>;
@@ -35,12 +37,13 @@ using OverlayDraw = std::function<stages::overlay::OverlayLayer(const Eigen::Mat
 // has buffers of its own.
 using OverlayFactory = std::function<OverlayDraw(const stages::overlay::LensView& view)>;
 
-// Where the overlays' layers go: each eye's compositor, the right one only
-// in a stereo run, and the calibration their lenses are built from.
+// Where the overlays' layers go: each eye's newest-layer mailbox, shared by
+// every branch and the composite stage (the right one only in a stereo run),
+// and the calibration the lenses are built from.
 struct OverlayEyes {
   io::StereoCalibration calibration;
-  std::shared_ptr<stages::overlay::Compositor> left;
-  std::shared_ptr<stages::overlay::Compositor> right;  // null: the left eye alone
+  std::shared_ptr<LatestLayers> left;
+  std::shared_ptr<LatestLayers> right;  // null: the left eye alone
 };
 
 // When an overlay drew a frame (steady clock), for the run log's /overlay_timings.
@@ -51,8 +54,8 @@ struct OverlayTiming {
 
 class OverlayBranch final : public SideBranch {
  public:
-  // index: the overlay's entry in the compositors' options. ring_capacity:
-  // geometries waiting (more are dropped and counted).
+  // index: the overlay's entry in the compositor's options (and the eyes'
+  // mailboxes). ring_capacity: geometries waiting (more are dropped and counted).
   OverlayBranch(std::string name, int index, OverlayFactory factory, OverlayEyes eyes, std::size_t ring_capacity = 2);
 
   const std::string& name() const override { return name_; }
@@ -77,7 +80,7 @@ class OverlayBranch final : public SideBranch {
   };
   struct Eye {
     OverlayDraw draw;
-    std::shared_ptr<stages::overlay::Compositor> compositor;
+    std::shared_ptr<LatestLayers> latest;
     stages::overlay::OverlayLayer layer;  // drawn, not yet offered
   };
 
@@ -121,17 +124,19 @@ OverlayPlan PlanOverlays(const io::Scene& scene, std::shared_ptr<const Simulatio
 // the pooled packets keep from frame to frame. Stateless.
 class CompositeAdapter final : public PacketStage {
  public:
-  // right: null for a left-only run.
-  CompositeAdapter(std::shared_ptr<const stages::overlay::Compositor> left,
-                   std::shared_ptr<const stages::overlay::Compositor> right = nullptr)
-      : left_(std::move(left)), right_(std::move(right)) {}
+  // left, right: the eyes' mailboxes, with as many overlays as the
+  // compositor's options have entries; right null for a left-only run.
+  // @throws dg::Error when a mailbox's overlays are not the compositor's entries.
+  CompositeAdapter(std::shared_ptr<const stages::overlay::Compositor> compositor,
+                   std::shared_ptr<const LatestLayers> left, std::shared_ptr<const LatestLayers> right = nullptr);
   const std::string& name() const override { return name_; }
   bool stateful() const override { return false; }
   void Process(FramePacket& packet) override;
 
  private:
   std::string name_ = "composite";
-  std::shared_ptr<const stages::overlay::Compositor> left_, right_;
+  std::shared_ptr<const stages::overlay::Compositor> compositor_;
+  std::shared_ptr<const LatestLayers> left_, right_;
 };
 
 }  // namespace dg::pipeline

@@ -127,12 +127,15 @@ SceneGraph BuildSceneGraph(const io::Scene& scene, const GraphOptions& options, 
     }
   }
   OverlayEyes eyes{built.calibration, nullptr, nullptr};
+  std::shared_ptr<const stages::overlay::Compositor> compositor;  // both eyes': it holds no layers
   if (scene.simulation) {
     built.simulation = LoadSimulationSetup(scene);
     OverlayPlan overlays = PlanOverlays(scene, built.simulation);
     if (!overlays.factories.empty()) {
-      eyes.left = std::make_shared<stages::overlay::Compositor>(overlays.compositor);
-      if (overlay_settings.right_eye) eyes.right = std::make_shared<stages::overlay::Compositor>(overlays.compositor);
+      compositor = std::make_shared<const stages::overlay::Compositor>(overlays.compositor);
+      const int count = static_cast<int>(overlays.factories.size());
+      eyes.left = std::make_shared<LatestLayers>(count);
+      if (overlay_settings.right_eye) eyes.right = std::make_shared<LatestLayers>(count);
     }
     for (size_t k = 0; k < overlays.factories.size(); ++k) {
       built.overlays.push_back(std::make_shared<OverlayBranch>(overlays.compositor.layers[k].name, static_cast<int>(k),
@@ -144,7 +147,7 @@ SceneGraph BuildSceneGraph(const io::Scene& scene, const GraphOptions& options, 
   if (built.given_registration) {
     CheckGivenPose(with_defaults, *built.given_registration, built.calibration, built.simulation.get(), settings);
   }
-  if (eyes.left) stages.push_back(std::make_unique<CompositeAdapter>(eyes.left, eyes.right));
+  if (eyes.left) stages.push_back(std::make_unique<CompositeAdapter>(compositor, eyes.left, eyes.right));
   built.graph = std::make_unique<StageGraph>(std::move(source), std::move(stages), options,
                                              std::vector<std::shared_ptr<SideBranch>>(built.overlays.begin(),
                                                                                       built.overlays.end()));

@@ -98,45 +98,48 @@ std::string CompositorOptions::Validate() const {
   return inverse_realism.Validate();
 }
 
-Compositor::Compositor(CompositorOptions options) : options_(std::move(options)), latest_(options_.layers.size()) {
+Compositor::Compositor(CompositorOptions options) : options_(std::move(options)), held_(options_.layers.size()) {
   if (const std::string problem = options_.Validate(); !problem.empty())
     throw Error("invalid compositor options: " + problem, "overlay order", "correct the scene's overlay order and blending");
 }
 
 void Compositor::Offer(int overlay, OverlayLayer layer) {
-  if (overlay < 0 || overlay >= static_cast<int>(latest_.size()))
+  if (overlay < 0 || overlay >= static_cast<int>(held_.size()))
     throw Error("no overlay " + std::to_string(overlay), "Compositor::Offer",
                 "offer layers only of the overlays the compositor was configured with");
-  std::lock_guard lock(mutex_);
-  if (latest_[overlay].empty() || layer.frame > latest_[overlay].frame) latest_[overlay] = std::move(layer);
+  if (held_[overlay].empty() || layer.frame > held_[overlay].frame) held_[overlay] = std::move(layer);
 }
 
 int Compositor::held_layers() const {
-  std::lock_guard lock(mutex_);
   int held = 0;
-  for (const OverlayLayer& layer : latest_) held += !layer.empty();
+  for (const OverlayLayer& layer : held_) held += !layer.empty();
   return held;
 }
 
-CompositeFrame Compositor::Compose(const cv::Mat& video_bgr, std::int64_t frame) const {
+CompositeFrame Compositor::Compose(const cv::Mat& video_bgr, std::int64_t frame,
+                                   std::span<const OverlayLayer> layers) const {
   CompositeFrame out;
   out.frame = frame;
-  Compose(video_bgr, frame, &out.bgr, &out.layer_age_frames);
+  Compose(video_bgr, frame, layers, &out.bgr, &out.layer_age_frames);
   return out;
+}
+
+CompositeFrame Compositor::Compose(const cv::Mat& video_bgr, std::int64_t frame) const {
+  return Compose(video_bgr, frame, held_);
 }
 
 void Compositor::Compose(const cv::Mat& video_bgr, std::int64_t frame, cv::Mat* composite_bgr,
                          std::vector<std::int64_t>* layer_age_frames) const {
+  Compose(video_bgr, frame, held_, composite_bgr, layer_age_frames);
+}
+
+void Compositor::Compose(const cv::Mat& video_bgr, std::int64_t frame, std::span<const OverlayLayer> layers,
+                         cv::Mat* composite_bgr, std::vector<std::int64_t>* layer_age_frames) const {
   const auto where = [frame] { return "compositor, frame " + std::to_string(frame); };
   if (video_bgr.type() != CV_8UC3) throw Error("the video frame is not 8-bit BGR", where(), "pass the captured colour frame");
-  // On the stack, not in vectors: a frame allocates nothing here (and a
-  // thread_local would hold the layers, and so the overlays' pooled images).
-  std::array<OverlayLayer, CompositorOptions::kMaxLayers> layers;
-  {
-    std::lock_guard lock(mutex_);
-    // Headers only: a handed-over layer is never written again.
-    std::copy(latest_.begin(), latest_.end(), layers.begin());
-  }
+  if (layers.size() != options_.layers.size())
+    throw Error(std::to_string(layers.size()) + " layers for " + std::to_string(options_.layers.size()) + " overlays",
+                where(), "pass one layer per overlay of the options, an empty one where an overlay has none yet");
   composite_bgr->create(video_bgr.size(), CV_8UC3);  // no-op when it has that size and type already
   if (layer_age_frames) layer_age_frames->clear();
   std::array<const OverlayLayer*, CompositorOptions::kMaxLayers> used_layers;

@@ -1,7 +1,7 @@
 #pragma once
 
 #include <cstdint>
-#include <mutex>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -42,51 +42,57 @@ struct CompositeFrame {
   std::vector<std::int64_t> layer_age_frames;
 };
 
-// Lays the overlays' newest layers over each video frame.
+// Lays the overlays' layers over each video frame.
 //
-// Each overlay runs at its own rate; between the overlays and the compositor
-// is a latest-value hand-over: Offer() keeps the newest layer per overlay and
-// drops the one it replaces, so a slow overlay never holds the video back (its
-// last layer is reused, older each frame, and the age is reported) and memory
-// is bounded by one held layer per overlay. Offer() may be called from any
-// thread while Compose() runs; Compose() is const and may run on several
-// frames at once (its scratch rows are per thread).
+// The caller hands Compose() one layer per entry of the options (an empty
+// layer where an overlay has none yet); a layer from a frame after the one
+// composed is left out, and each layer's age is reported. Where the layers
+// come from is the caller's business: the pipeline keeps the newest layer of
+// each overlay in a mailbox of its own (pipeline/latest_layers.h), so the
+// compositor knows nothing of threads. Compose() is const and may run on
+// several frames at once (its scratch rows are per thread).
 //
 // Compose() is one pass over the frame in bands of rows (in parallel): per
 // band the saliency rows (SaliencyBand) and then every layer over each pixel
 // in order, so the frame, the layers and the saliency are each read once. It
 // writes into the caller's image, so a caller that keeps its image from frame
 // to frame (the pipeline's pooled packets) allocates no image per frame.
-//
-// A stereo run has one compositor per eye: each eye's overlays are drawn
-// through that eye's lens and offered to that eye's compositor.
 class Compositor {
  public:
   // @throws dg::Error for invalid options.
   explicit Compositor(CompositorOptions options);
 
-  // Hands over overlay `overlay`'s layer (index into options.layers); keeps it
-  // if it is newer than the one held. @throws dg::Error for an unknown index.
-  void Offer(int overlay, OverlayLayer layer);
+  // The frame with `layers` (one per entry of the options, in their order)
+  // composed over it, into *composite_bgr (CV_8UC3, the frame's size; its
+  // buffer is reused when it has them already); each layer's age into
+  // *layer_age_frames unless null.
+  // @pre composite_bgr is not video_bgr and shares no buffer another thread reads;
+  //      no layer is written while Compose() runs.
+  // @throws dg::Error if the frame is not 8-bit BGR, the number of layers is
+  //         not the number of entries, or a layer's size differs from the frame's.
+  void Compose(const cv::Mat& video_bgr, std::int64_t frame, std::span<const OverlayLayer> layers,
+               cv::Mat* composite_bgr, std::vector<std::int64_t>* layer_age_frames) const;
+  // The same into a new image, for one-off callers.
+  CompositeFrame Compose(const cv::Mat& video_bgr, std::int64_t frame, std::span<const OverlayLayer> layers) const;
 
-  // The frame with the held layers composed over it, in order, into
-  // *composite_bgr (CV_8UC3, the frame's size; its buffer is reused when it
-  // has them already); each layer's age into *layer_age_frames unless null.
-  // @pre composite_bgr is not video_bgr and shares no buffer another thread reads.
-  // @throws dg::Error if the frame is not 8-bit BGR or a layer's size differs from it.
+  // For callers that compose one set of layers on one thread (snapshots,
+  // benchmarks): Offer() keeps overlay `overlay`'s layer (index into
+  // options.layers) if it is newer than the one held, and the Compose()
+  // overloads without layers compose the held ones. Not for concurrent use:
+  // no Offer() while a Compose() runs.
+  // @throws dg::Error for an unknown index.
+  void Offer(int overlay, OverlayLayer layer);
   void Compose(const cv::Mat& video_bgr, std::int64_t frame, cv::Mat* composite_bgr,
                std::vector<std::int64_t>* layer_age_frames) const;
-  // The same into a new image, for one-off callers (snapshots, benchmarks).
   CompositeFrame Compose(const cv::Mat& video_bgr, std::int64_t frame) const;
-
-  // Layers currently held (at most one per overlay).
+  // Layers held by Offer() (at most one per overlay).
   int held_layers() const;
+
   const CompositorOptions& options() const { return options_; }
 
  private:
   CompositorOptions options_;
-  mutable std::mutex mutex_;
-  std::vector<OverlayLayer> latest_;
+  std::vector<OverlayLayer> held_;  // Offer()'s, one per entry
 };
 
 }  // namespace dg::stages::overlay

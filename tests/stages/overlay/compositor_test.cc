@@ -1,12 +1,10 @@
-// The compositor against hand-computed blends, and its hand-over: a slow
-// overlay never holds the video back, its layer's age is reported, and no more
-// than one layer per overlay is ever held.
+// The compositor against hand-computed blends, and the ages of the layers it
+// is given (the hand-over between threads is pipeline/latest_layers.h's).
 #include "stages/overlay/compositor.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
-#include <future>
-#include <thread>
 
 #include <catch2/catch.hpp>
 #include <opencv2/imgproc.hpp>
@@ -193,37 +191,35 @@ TEST_CASE("compositor: composing into the caller's image reuses its buffer", "[s
   REQUIRE(ages == std::vector<std::int64_t>{1});  // untouched when not asked for
 }
 
-// The video loop composes 60 frames while the slow overlay's second layer is
-// still being made (it waits on a promise the loop only fulfils at the end):
-// every frame is composed, reusing the slow overlay's first layer, whose age grows.
-TEST_CASE("compositor: a slow overlay does not hold the video back and its age is recorded", "[stages][unit]") {
+// Each frame composes the layers it is given: a layer's age is the frame's
+// index minus the layer's, whatever the rates at which the layers were made.
+TEST_CASE("compositor: the layers passed are composed, and their ages reported", "[stages][unit]") {
   CompositorOptions options;
   options.layers = {{"fast", BlendMode::kAlpha}, {"slow", BlendMode::kAlpha}};
-  Compositor compositor(options);
-  std::promise<void> first_offered, release;
-  std::thread slow([&] {
-    compositor.Offer(1, ConstantLayer(8, 6, {0, 0, 0.5f, 0.5f}, 0));
-    first_offered.set_value();
-    release.get_future().wait();                                      // the slow render
-    compositor.Offer(1, ConstantLayer(8, 6, {0, 0, 0.5f, 0.5f}, 60));
-  });
-  first_offered.get_future().wait();
+  const Compositor compositor(options);
   const cv::Mat video(6, 8, CV_8UC3, cv::Scalar(10, 10, 10));
-  std::vector<std::int64_t> slow_ages;
+  const OverlayLayer slow = ConstantLayer(8, 6, {0, 0, 0.5f, 0.5f}, 0);
   for (std::int64_t j = 0; j < 60; ++j) {
-    compositor.Offer(0, ConstantLayer(8, 6, {0.1f, 0, 0, 0.1f}, j));
-    const CompositeFrame out = compositor.Compose(video, j);
-    REQUIRE(out.layer_age_frames[0] == 0);
-    slow_ages.push_back(out.layer_age_frames[1]);
-    REQUIRE(compositor.held_layers() <= 2);  // one per overlay, whatever the rates
+    const std::array<OverlayLayer, 2> layers{ConstantLayer(8, 6, {0.1f, 0, 0, 0.1f}, j), slow};
+    const CompositeFrame out = compositor.Compose(video, j, layers);
+    REQUIRE(out.layer_age_frames == std::vector<std::int64_t>{0, j});
+    // out = c + (1 - a) video, the slow layer over the fast one.
+    REQUIRE(out.bgr.at<cv::Vec3b>(5, 7)[2] == Approx(255 * (0.5 + 0.5 * 0.9 * 10 / 255.0)).margin(0.5));
   }
-  release.set_value();
-  slow.join();
-  for (std::int64_t j = 0; j < 60; ++j) REQUIRE(slow_ages[j] == j);
-  REQUIRE(compositor.Compose(video, 60).layer_age_frames == std::vector<std::int64_t>{1, 0});
-  // An older layer offered late does not replace a newer one.
-  compositor.Offer(1, ConstantLayer(8, 6, {0, 0, 0, 0}, 30));
-  REQUIRE(compositor.Compose(video, 61).layer_age_frames[1] == 1);
+  REQUIRE_THROWS_WITH(compositor.Compose(video, 0, std::array<OverlayLayer, 1>{slow}),
+                      Catch::Contains("1 layers for 2 overlays"));
+}
+
+// The one-thread convenience: Offer() keeps the newer of two layers.
+TEST_CASE("compositor: an offered layer replaces only an older one", "[stages][unit]") {
+  CompositorOptions options;
+  options.layers = {{"mesh", BlendMode::kAlpha}};
+  Compositor compositor(options);
+  const cv::Mat video(6, 8, CV_8UC3, cv::Scalar(10, 10, 10));
+  compositor.Offer(0, ConstantLayer(8, 6, {0, 0, 0, 0}, 60));
+  compositor.Offer(0, ConstantLayer(8, 6, {0, 0, 0, 0}, 30));
+  REQUIRE(compositor.held_layers() == 1);
+  REQUIRE(compositor.Compose(video, 61).layer_age_frames == std::vector<std::int64_t>{1});
 }
 
 TEST_CASE("compositor: a layer from a later frame waits; bad input is rejected", "[stages][unit]") {
