@@ -184,25 +184,18 @@ Scene::Registration ReadRegistration(const YamlMap& map, const fs::path& directo
 
 Scene::Simulation ReadSimulation(const YamlMap& map) {
   Scene::Simulation simulation;
-  simulation.mode = map.String("mode", simulation.mode);
-  if (simulation.mode != "surface" && simulation.mode != "volume" && simulation.mode != "combined") {
-    throw Error("unknown simulation mode '" + simulation.mode + "'", map.Where("mode"),
-                "use surface (tracked surface only), volume (recovered forces only) or combined");
-  }
+  simulation.mode = sim::ParseSimulationMode(map.String("mode", sim::ToString(simulation.mode)), map.Where("mode"));
   simulation.dt_s = map.Number("dt_s", simulation.dt_s);
   simulation.damping_per_s = map.Number("damping_per_s", simulation.damping_per_s);
   simulation.motion_smoothing = map.Number("motion_smoothing", simulation.motion_smoothing);
   simulation.concurrent = map.Boolean("concurrent", simulation.concurrent);
   simulation.inverse_interval_steps = map.Integer("inverse_interval_steps", simulation.inverse_interval_steps);
-  simulation.precision = map.String("precision", simulation.precision);
+  simulation.precision =
+      sim::ParsePrecision(map.String("precision", sim::ToString(simulation.precision)), map.Where("precision"));
   simulation.time_step_policy = map.String("time_step_policy", simulation.time_step_policy);
   if (simulation.time_step_policy != "refuse" && simulation.time_step_policy != "substep") {
     throw Error("unknown time step policy '" + simulation.time_step_policy + "'", map.Where("time_step_policy"),
                 "use refuse (a dt_s above the mesh's stable step is an error) or substep");
-  }
-  if (simulation.precision != "float" && simulation.precision != "double") {
-    throw Error("unknown precision '" + simulation.precision + "'", map.Where("precision"),
-                "use float (the default, faster) or double");
   }
   simulation.sampled_nodes = map.Integer("sampled_nodes", simulation.sampled_nodes);
   simulation.max_tie_distance_m = map.Number("max_tie_distance_m", simulation.max_tie_distance_m);
@@ -281,8 +274,9 @@ Scene ReadScene(const std::string& path) {
   if (top.Has("registration")) scene.registration = ReadRegistration(top.Map("registration"), directory);
   if (top.Has("simulation")) {
     scene.simulation = ReadSimulation(top.Map("simulation"));
-    if (!scene.preoperative && scene.simulation->mode != "surface") {
-      throw Error("simulation mode '" + scene.simulation->mode + "' needs the scan's motion (preoperative:)",
+    if (!scene.preoperative && scene.simulation->mode != sim::SimulationMode::kSurface) {
+      throw Error("simulation mode '" + sim::ToString(scene.simulation->mode) +
+                      "' needs the scan's motion (preoperative:)",
                   top.Where("simulation"), "add a preoperative: block, or use mode: surface");
     }
   }

@@ -7,6 +7,8 @@
 #include "io/calibration_source.h"
 #include "sim/inverse_interval.h"
 #include "sim/material.h"
+#include "sim/precision.h"
+#include "sim/simulation_mode.h"
 
 namespace dg::io {
 
@@ -91,13 +93,13 @@ struct Scene {
   // The image-constrained simulation; absent: the run
   // ends at tracking.
   struct Simulation {
-    std::string mode = "combined";  // surface, volume or combined
+    sim::SimulationMode mode = sim::SimulationMode::kCombined;
     double dt_s = 2e-4;
     double damping_per_s = 75;      // the paper's alpha
     double motion_smoothing = 0;    // the motion model's smoothing weight (0: interpolating)
     bool concurrent = true;         // inverse beside forward
     int inverse_interval_steps = sim::kDefaultInverseIntervalSteps;  // forward steps per level of recovered forces
-    std::string precision = "float";  // float (as the paper's GPU solver) or double
+    sim::Precision precision = sim::Precision::kFloat;  // float (as the paper's GPU solver) or double
     // A dt_s above the mesh's stable step: refuse (an error at scene load) or
     // substep (each step split into the fewest equal substeps that are stable).
     std::string time_step_policy = "refuse";

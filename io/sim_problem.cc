@@ -131,11 +131,8 @@ SimProblem ParseSimProblem(const std::string& yaml_text, const std::string& path
     solver.damping_per_s = map.Number("damping_per_s", solver.damping_per_s);
     solver.stability_safety = map.Number("stability_safety", solver.stability_safety);
     solver.time_step_policy = ParsePolicy(map);
-    const std::string precision = map.String("precision", "float");
-    if (precision != "float" && precision != "double") {
-      throw Error("'precision' must be float or double", map.Where("precision"), "choose one");
-    }
-    problem.precision = precision == "float" ? Precision::kFloat : Precision::kDouble;
+    problem.precision =
+        sim::ParsePrecision(map.String("precision", sim::ToString(problem.precision)), map.Where("precision"));
     map.RejectUnknown();
   }
   problem.solver.gravity_m_s2 = top.Vector3("gravity_m_s2", Eigen::Vector3d::Zero());

@@ -8,6 +8,7 @@
 #include <Eigen/Core>
 
 #include "sim/material.h"
+#include "sim/precision.h"
 #include "sim/tet_mesh.h"
 #include "sim/tled_solver.h"
 
@@ -61,15 +62,13 @@ struct MeshSource {
   int tets = 20000;
 };
 
-enum class Precision { kFloat, kDouble };
-
 // A `dynaguide sim` problem: one YAML file
 // (`dynaguide sim --print-example` shows every key, with units in the key names).
 struct SimProblem {
   MeshSource mesh;
   sim::Material material;
   sim::SolverOptions solver;
-  Precision precision = Precision::kFloat;
+  sim::Precision precision = sim::Precision::kFloat;
   double duration_s = 1.0;
   double output_every_s = 0.01;
   std::vector<FixedCondition> fixed;

@@ -163,7 +163,7 @@ std::shared_ptr<const SimulationSetup> LoadSimulationSetup(const io::Scene& scen
     return stages::LoadMotionModel(scene.preoperative->motion, setup->mesh.num_nodes(), scene.preoperative->period_s,
                                    setup->options.motion_smoothing);
   };
-  if (setup->options.mode != "surface") {
+  if (setup->options.mode != sim::SimulationMode::kSurface) {
     setup->motion = setup->predictor = load_motion();
   } else if (scene.preoperative) {
     // Surface mode runs without the scan's node motion; it only predicts across dropped frames when it has it.
@@ -235,7 +235,7 @@ void FemAdapter::Process(FramePacket& packet) {
   if (!packet.registration) return;  // the simulation starts at the first registered frame
   if (!fem_) {
     stages::FemStage::Options options;
-    options.mode = sim::ParseSimulationMode(setup_->options.mode);
+    options.mode = setup_->options.mode;
     options.dt_s = setup_->options.dt_s;
     options.damping_per_s = setup_->options.damping_per_s;
     options.fps = setup_->fps;
@@ -243,13 +243,14 @@ void FemAdapter::Process(FramePacket& packet) {
     options.sampled_nodes = setup_->options.sampled_nodes;
     options.concurrent = setup_->options.concurrent;
     options.inverse_interval_steps = setup_->options.inverse_interval_steps;
-    options.double_precision = setup_->options.precision == "double";
+    options.double_precision = setup_->options.precision == sim::Precision::kDouble;
     options.launch_helper = helpers_->launcher();
     fem_ = std::make_unique<stages::FemStage>(options, setup_->mesh, setup_->material, setup_->motion,
                                               setup_->predictor, setup_->fixed_nodes, &setup_->stability);
     first_frame_ = packet.index;
     Logger("pipeline").info("simulation starts at frame {} ({} mode, {}, dt {} ms, critical dt {:.3f} ms)",
-                            packet.index, setup_->options.mode, setup_->options.precision, 1e3 * options.dt_s,
+                            packet.index, sim::ToString(setup_->options.mode),
+                            sim::ToString(setup_->options.precision), 1e3 * options.dt_s,
                             1e3 * fem_->stability().dt_critical_s);
   }
   std::shared_ptr<stages::FemFrameOutput> output = FreeOutput();

@@ -7,22 +7,6 @@
 #include "sim/tled_kernel.h"
 
 namespace dg::sim {
-std::string ToString(SimulationMode mode) {
-  switch (mode) {
-    case SimulationMode::kSurface: return "surface";
-    case SimulationMode::kVolume: return "volume";
-    case SimulationMode::kCombined: return "combined";
-  }
-  return "?";
-}
-
-SimulationMode ParseSimulationMode(const std::string& name) {
-  for (SimulationMode mode : {SimulationMode::kSurface, SimulationMode::kVolume, SimulationMode::kCombined}) {
-    if (ToString(mode) == name) return mode;
-  }
-  throw Error("unknown simulation mode '" + name + "'", "simulation mode", "use surface, volume or combined");
-}
-
 std::string CoupledOptions::Validate() const {
   if (std::string problem = solver.Validate(); !problem.empty()) return problem;
   if (solver.time_step_policy == TimeStepPolicy::kSubstep) {

@@ -11,18 +11,10 @@
 #include "sim/inverse_interval.h"
 #include "sim/motion_model.h"
 #include "sim/phase_clock.h"
+#include "sim/simulation_mode.h"
 #include "sim/tled_solver.h"
 
 namespace dg::sim {
-
-// What drives the image-constrained simulation:
-//   kSurface  - positional constraints only (no inverse simulation at all);
-//   kVolume   - forces recovered from the preoperative motion only;
-//   kCombined - both (paper section 2.6).
-enum class SimulationMode { kSurface, kVolume, kCombined };
-std::string ToString(SimulationMode mode);
-// @throws dg::Error for a name other than surface, volume or combined.
-SimulationMode ParseSimulationMode(const std::string& name);
 
 struct CoupledOptions {
   SimulationMode mode = SimulationMode::kCombined;

@@ -160,11 +160,11 @@ TEST_CASE("scene: simulation and registration", "[io][unit]") {
   text += "simulation:\n  mode: volume\n  dt_s: 1.0e-4\n  concurrent: false\nregistration:\n  cycles: 2\n";
   fs::path dir = MakeSceneDir("dg_scene_test_sim", text);
   Scene scene = ReadScene((dir / "scene.yaml").string());
-  REQUIRE(scene.simulation->mode == "volume");
+  REQUIRE(scene.simulation->mode == sim::SimulationMode::kVolume);
   REQUIRE(scene.simulation->dt_s == 1e-4);
   REQUIRE_FALSE(scene.simulation->concurrent);
   REQUIRE(scene.simulation->damping_per_s == 75);  // the paper's alpha by default
-  REQUIRE(scene.simulation->precision == "float");
+  REQUIRE(scene.simulation->precision == sim::Precision::kFloat);
   REQUIRE(scene.simulation->inverse_interval_steps == sim::kDefaultInverseIntervalSteps);
   REQUIRE(scene.registration->cycles == 2);
   REQUIRE(scene.registration->file.empty());
@@ -178,11 +178,27 @@ TEST_CASE("scene: simulation and registration", "[io][unit]") {
   REQUIRE_FALSE(scene.simulation);
 
   dir = MakeSceneDir("dg_scene_test_sim", kScene + std::string("simulation:\n  mode: rigid\n"));
+  // A bad mode or precision: the file, the key, the value and the values allowed.
   REQUIRE_THROWS_WITH(ReadScene((dir / "scene.yaml").string()),
-                      Catch::Contains("unknown simulation mode 'rigid'") && Catch::Contains("simulation.mode"));
+                      Catch::Contains("unknown simulation mode 'rigid'") && Catch::Contains("simulation.mode") &&
+                          Catch::Contains((dir / "scene.yaml").string()) &&
+                          Catch::Contains("surface, volume or combined"));
   dir = MakeSceneDir("dg_scene_test_sim", kScene + std::string("simulation:\n  precision: half\n"));
   REQUIRE_THROWS_WITH(ReadScene((dir / "scene.yaml").string()),
-                      Catch::Contains("unknown precision 'half'") && Catch::Contains("simulation.precision"));
+                      Catch::Contains("unknown precision 'half'") && Catch::Contains("simulation.precision") &&
+                          Catch::Contains((dir / "scene.yaml").string()) && Catch::Contains("float") &&
+                          Catch::Contains("or double"));
+  // The names scene files use are the enums' own.
+  for (sim::SimulationMode mode :
+       {sim::SimulationMode::kSurface, sim::SimulationMode::kVolume, sim::SimulationMode::kCombined}) {
+    for (sim::Precision precision : {sim::Precision::kFloat, sim::Precision::kDouble}) {
+      dir = MakeSceneDir("dg_scene_test_sim", kScene + std::string("simulation:\n  mode: ") + sim::ToString(mode) +
+                                                  "\n  precision: " + sim::ToString(precision) + "\n");
+      scene = ReadScene((dir / "scene.yaml").string());
+      CHECK(scene.simulation->mode == mode);
+      CHECK(scene.simulation->precision == precision);
+    }
+  }
   dir = MakeSceneDir("dg_scene_test_sim", kScene + std::string("simulation:\n  time_step_policy: shrink\n"));
   REQUIRE_THROWS_WITH(ReadScene((dir / "scene.yaml").string()),
                       Catch::Contains("unknown time step policy 'shrink'") &&

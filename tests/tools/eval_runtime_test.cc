@@ -103,7 +103,7 @@ TEST_CASE("eval runtime: the default design is one factor at a time around the b
   std::set<int> threads_at_baseline, features_at_baseline;
   std::set<std::string> precisions;
   for (const SweepPoint& p : design) {
-    precisions.insert(p.precision);
+    precisions.insert(sim::ToString(p.precision));
     names.insert(p.Name());
     const bool baseline_features = p.target_features == 500;
     if (p.dt_s == 2e-4 && p.threads == 2 && baseline_features) meshes_at_baseline_step.insert(p.target_tets);
@@ -252,7 +252,7 @@ TEST_CASE("eval runtime: the quick sweep on the tiny phantom, its table recomput
     CHECK(Number(row, "dt_ms") == Approx(p.plan.point.dt_s * 1e3));
     CHECK(Number(row, "threads") == p.plan.point.threads);
     CHECK(Number(row, "target_features") == p.plan.point.target_features);
-    CHECK(row.at("precision") == p.plan.point.precision);
+    CHECK(row.at("precision") == sim::ToString(p.plan.point.precision));
   }
   CHECK(logs == static_cast<int>(DesignSweep(true).size()));
 
@@ -271,7 +271,8 @@ TEST_CASE("eval runtime: the quick sweep on the tiny phantom, its table recomput
   // mesher's target within its tolerance, and its interior error is of the
   // phantom's own mesh's order (a motion recorded for the wrong nodes would
   // be centimetres off).
-  const auto point = [&](int tets, double dt_s, const std::string& precision = "float") -> const PointResult& {
+  const auto point = [&](int tets, double dt_s,
+                         sim::Precision precision = sim::Precision::kFloat) -> const PointResult& {
     for (const PointResult& p : result.points) {
       if (p.plan.point.target_tets == tets && std::abs(p.plan.point.dt_s - dt_s) < 1e-9 &&
           p.plan.point.precision == precision) {
@@ -301,7 +302,7 @@ TEST_CASE("eval runtime: the quick sweep on the tiny phantom, its table recomput
   // Precision: float resolves 3e-9 m at the phantom's 5 cm, so the double
   // run's errors are the float run's to far below a micrometre (the FEM
   // stage's own test: 0.001 um apart after a second).
-  CHECK(point(0, 2e-4, "double").errors.internal_rms_mm ==
+  CHECK(point(0, 2e-4, sim::Precision::kDouble).errors.internal_rms_mm ==
         Approx(point(0, 2e-4).errors.internal_rms_mm).margin(1e-3));
 
   // The same tables from the logs alone, as after --emit-jobs (`dynaguide report DIR` tells a sweep by its points).

@@ -79,7 +79,7 @@ TEST_CASE("eval protocol: the tiny phantom in three modes, its tables recomputed
   REQUIRE(result.window_cycles == Approx(1.5).epsilon(0.01));
 
   for (size_t m = 0; m < ProtocolModes().size(); ++m) {
-    const std::string& mode = ProtocolModes()[m];
+    const std::string mode = sim::ToString(ProtocolModes()[m]);
     const testing::WindowErrors row = RecomputeRow(options.out_dir + "/runs/" + result.scenes.front() + "/" + mode + "/run.h5",
                                  result.window_frames);
     const ErrorFigures& figures = result.per_mode[m];

@@ -47,9 +47,9 @@ TEST_CASE("sim runner: built-in example agrees in float and double", "[tools][in
   SimRunOptions options;
   options.write_output = false;
   options.progress = false;
-  problem.precision = io::Precision::kFloat;
+  problem.precision = sim::Precision::kFloat;
   const SimSummary single = RunSimProblem(problem, mesh, options);
-  problem.precision = io::Precision::kDouble;
+  problem.precision = sim::Precision::kDouble;
   const SimSummary twice = RunSimProblem(problem, mesh, options);
 
   REQUIRE(single.steps == 5000);

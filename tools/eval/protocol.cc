@@ -30,9 +30,10 @@ namespace fs = std::filesystem;
 struct PaperRow {
   double surface_avg, surface_max, surface_rms, internal_avg, internal_max, internal_rms;
 };
-const std::map<std::string, PaperRow> kPaperTable1 = {{"surface", {0.33, 0.64, 0.36, 1.05, 2.16, 1.21}},
-                                                       {"volume", {0.69, 1.40, 0.80, 0.16, 0.32, 0.18}},
-                                                       {"combined", {0.36, 0.68, 0.40, 0.83, 1.75, 0.92}}};
+const std::map<sim::SimulationMode, PaperRow> kPaperTable1 = {
+    {sim::SimulationMode::kSurface, {0.33, 0.64, 0.36, 1.05, 2.16, 1.21}},
+    {sim::SimulationMode::kVolume, {0.69, 1.40, 0.80, 0.16, 0.32, 0.18}},
+    {sim::SimulationMode::kCombined, {0.36, 0.68, 0.40, 0.83, 1.75, 0.92}}};
 // Its Table 2 (mm): the five fiducials' errors of the deformed scan and of the volume-mode simulation.
 const std::vector<double> kPaperDeformed = {0.23, 0.31, 0.20, 0.23, 0.23};
 const std::vector<double> kPaperVolume = {0.25, 0.30, 0.20, 0.23, 0.33};
@@ -69,10 +70,10 @@ std::string WriteTruthRegistration(const io::Scene& scene) {
 // resolve), without overlays: the errors do not depend on drawing them;
 // with the truth's registration, or with the registration's constant phase
 // shift instead of the live phase, when the options ask.
-std::string WriteModeScene(const io::Scene& scene, const std::string& mode, const ProtocolOptions& options) {
+std::string WriteModeScene(const io::Scene& scene, sim::SimulationMode mode, const ProtocolOptions& options) {
   const std::string& scene_file = scene.path;
   YAML::Node root = YAML::Load(scene.text);
-  root["simulation"]["mode"] = mode;
+  root["simulation"]["mode"] = sim::ToString(mode);
   root.remove("overlays");
   if (options.truth_registration) {
     root.remove("registration");
@@ -80,10 +81,11 @@ std::string WriteModeScene(const io::Scene& scene, const std::string& mode, cons
   } else if (options.constant_phase) {
     root["registration"]["live_phase"] = false;
   }
-  const std::string name = "eval-" + mode + (options.constant_phase ? "-constant-phase" : "") + ".yaml";
+  const std::string name = "eval-" + sim::ToString(mode) + (options.constant_phase ? "-constant-phase" : "") + ".yaml";
   const std::string path = (fs::path(scene_file).parent_path() / name).string();
   std::ofstream out(path);
-  out << "# " << scene_file << " in " << mode << " mode, for `dynaguide eval protocol`\n" << YAML::Dump(root) << "\n";
+  out << "# " << scene_file << " in " << sim::ToString(mode) << " mode, for `dynaguide eval protocol`\n"
+      << YAML::Dump(root) << "\n";
   if (!out) throw Error("cannot write the mode's scene", path, "make the scene's directory writable");
   return path;
 }
@@ -94,7 +96,7 @@ std::string Fixed(double value, int digits = 2) {
   return text;
 }
 
-std::vector<const RunErrors*> RunsOfMode(const ProtocolResult& result, const std::string& mode) {
+std::vector<const RunErrors*> RunsOfMode(const ProtocolResult& result, sim::SimulationMode mode) {
   std::vector<const RunErrors*> runs;
   for (const RunErrors& run : result.runs) {
     if (run.mode == mode) runs.push_back(&run);
@@ -125,7 +127,7 @@ void AppendPhaseTable(const ProtocolResult& result, std::string* md) {
   for (size_t m = 0; m < ProtocolModes().size(); ++m) {
     const ErrorFigures& f = result.per_mode[m];
     if (!result.mode_ran[m] || f.phase_frames == 0) continue;
-    *md += "| " + ProtocolModes()[m] + " | " + std::to_string(f.phase_frames) + " | " +
+    *md += "| " + sim::ToString(ProtocolModes()[m]) + " | " + std::to_string(f.phase_frames) + " | " +
            Fixed(f.phase_error_mean_ms) + " | " + Fixed(f.phase_error_max_ms) + " | " +
            Fixed(f.registered_phase_error_mean_ms) + " | " + Fixed(f.registered_phase_error_max_ms) + " |\n";
   }
@@ -137,10 +139,10 @@ void WritePlots(const ProtocolResult& result, const std::string& out_dir) {
   // The first scene's runs: one time axis.
   const std::string& scene = result.scenes.front();
   std::vector<PlotSeries> surface, internal;
-  for (const std::string& mode : ProtocolModes()) {
+  for (sim::SimulationMode mode : ProtocolModes()) {
     for (const RunErrors& run : result.runs) {
       if (run.mode != mode || run.scene_name != scene) continue;
-      PlotSeries s{mode, {}}, i{mode, {}};
+      PlotSeries s{sim::ToString(mode), {}}, i{sim::ToString(mode), {}};
       const size_t rows = std::min(run.frame.size(), static_cast<size_t>(result.window_frames));
       for (size_t r = 0; r < rows; ++r) {
         s.points.push_back({run.t_s[r], run.surface_mean_mm[r]});
@@ -155,10 +157,10 @@ void WritePlots(const ProtocolResult& result, const std::string& out_dir) {
   PlotOptions options;
   options.x_label = "video time (s), " + scene;
   options.y_label = "surface overlay error, left image (mm, mean over the visible points)";
-  options.references = {{"paper, combined avg", kPaperTable1.at("combined").surface_avg}};
+  options.references = {{"paper, combined avg", kPaperTable1.at(sim::SimulationMode::kCombined).surface_avg}};
   WriteLinePlot(surface, options, out_dir + "/fig2_surface.png");
   options.y_label = "internal overlay error, 3D (mm, mean over the internal points)";
-  options.references = {{"paper, combined avg", kPaperTable1.at("combined").internal_avg}};
+  options.references = {{"paper, combined avg", kPaperTable1.at(sim::SimulationMode::kCombined).internal_avg}};
   WriteLinePlot(internal, options, out_dir + "/fig2_internal.png");
 }
 
@@ -194,8 +196,9 @@ void AppendTable2(const ErrorFigures& volume, std::string* md_out, std::string* 
 
 }  // namespace
 
-const std::vector<std::string>& ProtocolModes() {
-  static const std::vector<std::string> modes = {"surface", "volume", "combined"};
+const std::vector<sim::SimulationMode>& ProtocolModes() {
+  static const std::vector<sim::SimulationMode> modes = {sim::SimulationMode::kSurface, sim::SimulationMode::kVolume,
+                                                         sim::SimulationMode::kCombined};
   return modes;
 }
 
@@ -214,10 +217,10 @@ ProtocolResult RunProtocol(const ProtocolOptions& options) {
                   "evaluate a phantom scene (dynaguide phantom writes truth.h5 and scan.h5)");
     }
     const std::string& name = scene.name;
-    for (const std::string& mode : ProtocolModes()) {
+    for (sim::SimulationMode mode : ProtocolModes()) {
       pipeline::RunOptions run;
       run.scene = WriteModeScene(scene, mode, options);
-      run.out_dir = runs_dir + "/" + name + "/" + mode;
+      run.out_dir = runs_dir + "/" + name + "/" + sim::ToString(mode);
       run.threads = options.threads;
       run.video = false;
       run.progress = options.progress;
@@ -227,7 +230,9 @@ ProtocolResult RunProtocol(const ProtocolOptions& options) {
              << (options.threads > 0 ? " --threads " + std::to_string(options.threads) : "") << "\n";
         continue;
       }
-      if (options.progress) std::fprintf(stderr, "eval protocol: %s, %s mode\n", name.c_str(), mode.c_str());
+      if (options.progress) {
+        std::fprintf(stderr, "eval protocol: %s, %s mode\n", name.c_str(), sim::ToString(mode).c_str());
+      }
       pipeline::RunScene(run);
     }
   }
@@ -246,7 +251,7 @@ ProtocolResult ReadProtocolLogs(const std::string& dir, double cycles) {
   }
   // Scenes in name order, modes in the protocol's.
   std::sort(result.runs.begin(), result.runs.end(), [](const RunErrors& a, const RunErrors& b) {
-    const auto rank = [](const std::string& mode) {
+    const auto rank = [](sim::SimulationMode mode) {
       return std::find(ProtocolModes().begin(), ProtocolModes().end(), mode) - ProtocolModes().begin();
     };
     return std::pair(a.scene_name, rank(a.mode)) < std::pair(b.scene_name, rank(b.mode));
@@ -259,7 +264,7 @@ ProtocolResult ReadProtocolLogs(const std::string& dir, double cycles) {
     if (result.scenes.empty() || result.scenes.back() != run.scene_name) result.scenes.push_back(run.scene_name);
   }
   result.window_cycles = result.window_frames / (first.period_s * first.fps);
-  for (const std::string& mode : ProtocolModes()) {
+  for (sim::SimulationMode mode : ProtocolModes()) {
     const std::vector<const RunErrors*> runs = RunsOfMode(result, mode);
     result.mode_ran.push_back(!runs.empty());
     result.per_mode.push_back(runs.empty() ? ErrorFigures{} : Figures(runs, result.window_frames));
@@ -284,21 +289,22 @@ std::string WriteProtocolReport(const ProtocolResult& result, const std::string&
   std::string csv1 = "mode,surface_avg_mm,surface_max_mm,surface_rms_mm,internal_avg_mm,internal_max_mm,internal_rms_mm,"
                      "realtime_factor,frames\n";
   for (size_t m = 0; m < ProtocolModes().size(); ++m) {
-    const std::string& mode = ProtocolModes()[m];
+    const sim::SimulationMode mode = ProtocolModes()[m];
+    const std::string name = sim::ToString(mode);
     if (!result.mode_ran[m]) {
-      md += "| " + mode + " | not run | | | | | | |\n";
+      md += "| " + name + " | not run | | | | | | |\n";
       continue;
     }
     const ErrorFigures& f = result.per_mode[m];
     const PaperRow& paper = kPaperTable1.at(mode);
     std::vector<double> factors;
     for (const RunErrors* run : RunsOfMode(result, mode)) factors.push_back(run->realtime_factor);
-    md += "| " + mode + " | " + Fixed(f.surface_avg_mm) + " (" + Fixed(paper.surface_avg) + ") | " +
+    md += "| " + name + " | " + Fixed(f.surface_avg_mm) + " (" + Fixed(paper.surface_avg) + ") | " +
           Fixed(f.surface_max_mm) + " (" + Fixed(paper.surface_max) + ") | " + Fixed(f.surface_rms_mm) + " (" +
           Fixed(paper.surface_rms) + ") | " + Fixed(f.internal_avg_mm) + " (" + Fixed(paper.internal_avg) + ") | " +
           Fixed(f.internal_max_mm) + " (" + Fixed(paper.internal_max) + ") | " + Fixed(f.internal_rms_mm) + " (" +
           Fixed(paper.internal_rms) + ") | " + Fixed(sim::Median(factors)) + " |\n";
-    csv1 += mode + "," + Fixed(f.surface_avg_mm, 6) + "," + Fixed(f.surface_max_mm, 6) + "," +
+    csv1 += name + "," + Fixed(f.surface_avg_mm, 6) + "," + Fixed(f.surface_max_mm, 6) + "," +
             Fixed(f.surface_rms_mm, 6) + "," + Fixed(f.internal_avg_mm, 6) + "," + Fixed(f.internal_max_mm, 6) + "," +
             Fixed(f.internal_rms_mm, 6) + "," + Fixed(sim::Median(factors), 4) + "," + std::to_string(f.frames) + "\n";
   }
@@ -318,7 +324,7 @@ std::string WriteProtocolReport(const ProtocolResult& result, const std::string&
   md += "## Registration residuals (mean, mm at the fiducials' depth)\n\n| scene | mode | left | right |\n"
         "|---|---|---:|---:|\n";
   for (const RunErrors& run : result.runs) {
-    md += "| " + run.scene_name + " | " + run.mode + " | " + Fixed(run.residual_mm_left, 3) + " | " +
+    md += "| " + run.scene_name + " | " + sim::ToString(run.mode) + " | " + Fixed(run.residual_mm_left, 3) + " | " +
           Fixed(run.residual_mm_right, 3) + " |\n";
   }
   md += "\nThe paper: " + Fixed(kPaperResidualMm) + " mm left and right.\n\n";
@@ -350,8 +356,8 @@ void WriteProtocolJson(const ProtocolResult& result, const std::string& path) {
                   "    {\"mode\": %s, \"surface_avg_mm\": %.6g, \"surface_max_mm\": %.6g, \"surface_rms_mm\": %.6g, "
                   "\"internal_avg_mm\": %.6g, \"internal_max_mm\": %.6g, \"internal_rms_mm\": %.6g, "
                   "\"realtime_factor\": %.6g, \"frames\": %d%s}%s\n",
-                  JsonQuoted(ProtocolModes()[m]).c_str(), f.surface_avg_mm, f.surface_max_mm, f.surface_rms_mm,
-                  f.internal_avg_mm, f.internal_max_mm, f.internal_rms_mm, sim::Median(factors), f.frames,
+                  JsonQuoted(sim::ToString(ProtocolModes()[m])).c_str(), f.surface_avg_mm, f.surface_max_mm,
+                  f.surface_rms_mm, f.internal_avg_mm, f.internal_max_mm, f.internal_rms_mm, sim::Median(factors), f.frames,
                   PhaseJson(f).c_str(), m != ran.back() ? "," : "");
     json += line;
   }

@@ -36,7 +36,7 @@ struct ProtocolOptions {
 };
 
 // The modes a protocol runs, in its tables' order.
-const std::vector<std::string>& ProtocolModes();
+const std::vector<sim::SimulationMode>& ProtocolModes();
 
 struct ProtocolResult {
   std::vector<std::string> scenes;      // names, in run order

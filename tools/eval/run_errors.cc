@@ -47,7 +47,10 @@ RunErrors ReadRunErrors(const std::string& run_h5) {
   run.path = run_h5;
   const YAML::Node scene = YAML::Load(file.ReadString("/scene"));
   run.scene_name = scene["name"] ? scene["name"].as<std::string>() : "";
-  run.mode = scene["simulation"]["mode"] ? scene["simulation"]["mode"].as<std::string>() : "combined";
+  if (scene["simulation"]["mode"]) {
+    run.mode =
+        sim::ParseSimulationMode(scene["simulation"]["mode"].as<std::string>(), run_h5 + ": /scene simulation.mode");
+  }
   run.fps = file.ReadAttribute<double>("/", "fps");
   run.complete = file.ReadAttribute<std::int64_t>("/", "complete") == 1;
   const double wall_s = file.HasAttribute("/", "wall_s") ? file.ReadAttribute<double>("/", "wall_s") : 0;

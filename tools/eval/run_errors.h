@@ -4,13 +4,16 @@
 #include <string>
 #include <vector>
 
+#include "sim/simulation_mode.h"
+
 namespace dg::tools {
 
 // One run log's errors against ground truth (its /errors, /registration and
 // scene), as the evaluation tables need them.
 struct RunErrors {
   std::string path;
-  std::string scene_name, mode;  // from the scene the run log holds
+  std::string scene_name;  // from the scene the run log holds
+  sim::SimulationMode mode = sim::SimulationMode::kCombined;  // likewise
   double fps = 0, period_s = 0;
   double realtime_factor = 0;    // seconds of video per wall second (frames / fps / wall_s)
   bool complete = false;

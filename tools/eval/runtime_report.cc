@@ -74,7 +74,7 @@ std::string RecommendationText(const RuntimeResult& result) {
       "For real time on two cores, pick %s: %d tetrahedra, dt %.2f ms, %s, %d target features, "
       "2 threads, the most accurate point that keeps up (internal RMS %.3f mm, surface RMS %.3f mm, "
       "%.2fx real time while simulating).",
-      p.plan.point.Name().c_str(), p.plan.tets, p.plan.point.dt_s * 1e3, p.plan.point.precision.c_str(),
+      p.plan.point.Name().c_str(), p.plan.tets, p.plan.point.dt_s * 1e3, sim::ToString(p.plan.point.precision).c_str(),
       p.plan.point.target_features,
       p.errors.internal_rms_mm, p.errors.surface_rms_mm, p.simulating_realtime_factor);
 }
@@ -146,7 +146,8 @@ std::string WriteRuntimeReport(const RuntimeResult& result, const std::string& o
       md += Status(p) + " | | | | | | | | |\n";
     }
     csv += p.plan.point.Name() + "," + std::to_string(p.plan.tets) + "," + std::to_string(p.plan.nodes) + "," +
-           Printed("%.4f,%d,%s,%d,%.6f,", p.plan.point.dt_s * 1e3, p.plan.point.threads, p.plan.point.precision.c_str(),
+           Printed("%.4f,%d,%s,%d,%.6f,", p.plan.point.dt_s * 1e3, p.plan.point.threads,
+                   sim::ToString(p.plan.point.precision).c_str(),
                    p.plan.point.target_features, p.plan.dt_critical_s * 1e3) +
            CsvQuoted(Status(p)) +
            Printed(",%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%d,%d,%.2f", e.surface_avg_mm, e.surface_max_mm,
@@ -198,7 +199,8 @@ void WriteRuntimeJson(const RuntimeResult& result, const std::string& path) {
         "\"internal_rms_mm\": %.6g, \"realtime_factor\": %.6g, \"simulating_realtime_factor\": %.6g, "
         "\"pareto\": %s, \"recommended\": %s}%s\n",
         JsonQuoted(p.plan.point.Name()).c_str(), p.plan.tets, p.plan.point.dt_s * 1e3, p.plan.point.threads,
-        JsonQuoted(p.plan.point.precision).c_str(), p.plan.point.target_features, JsonQuoted(Status(p)).c_str(), e.surface_avg_mm,
+        JsonQuoted(sim::ToString(p.plan.point.precision)).c_str(), p.plan.point.target_features,
+        JsonQuoted(Status(p)).c_str(), e.surface_avg_mm,
         e.surface_max_mm, e.surface_rms_mm, e.internal_avg_mm, e.internal_max_mm, e.internal_rms_mm, p.realtime_factor,
         p.simulating_realtime_factor, p.pareto ? "true" : "false", result.recommended == k ? "true" : "false",
         k + 1 < result.points.size() ? "," : "");

@@ -35,7 +35,7 @@ constexpr const char* kPointFile = "point.yaml";
 std::string WritePointScene(const io::Scene& scene, const SweepPoint& point, const MeshVariant* variant) {
   YAML::Node root = YAML::Load(scene.text);
   root["simulation"]["dt_s"] = point.dt_s;
-  root["simulation"]["precision"] = point.precision;
+  root["simulation"]["precision"] = sim::ToString(point.precision);
   if (variant) {
     root["mesh"]["file"] = variant->mesh_file;
     root["preoperative"]["motion"] = variant->scan_file;
@@ -89,7 +89,7 @@ void WritePointFile(const std::string& dir, const std::string& scene_name, const
   yaml << YAML::Key << "dt_s" << YAML::Value << plan.point.dt_s;
   yaml << YAML::Key << "target_features" << YAML::Value << plan.point.target_features;
   yaml << YAML::Key << "threads" << YAML::Value << plan.point.threads;
-  yaml << YAML::Key << "precision" << YAML::Value << plan.point.precision;
+  yaml << YAML::Key << "precision" << YAML::Value << sim::ToString(plan.point.precision);
   yaml << YAML::Key << "dt_critical_s" << YAML::Value << plan.dt_critical_s;
   yaml << YAML::Key << "safety" << YAML::Value << plan.safety;
   yaml << YAML::Key << "refused" << YAML::Value << plan.refused;
@@ -122,7 +122,8 @@ PointFile ReadPointFile(const std::string& path) {
     plan.point.dt_s = yaml["dt_s"].as<double>();
     plan.point.target_features = yaml["target_features"].as<int>();
     plan.point.threads = yaml["threads"].as<int>();
-    plan.point.precision = yaml["precision"].as<std::string>("float");
+    plan.point.precision = sim::ParsePrecision(
+        yaml["precision"].as<std::string>(sim::ToString(sim::Precision::kFloat)), path + " (precision)");
     plan.tets = yaml["tets"].as<int>();
     plan.nodes = yaml["nodes"].as<int>();
     plan.dt_critical_s = yaml["dt_critical_s"].as<double>();
@@ -160,13 +161,17 @@ std::string Duration(double seconds) {
 std::string SweepPoint::Name() const {
   return (target_tets > 0 ? "tets" + std::to_string(target_tets) : std::string("tets-own")) +
          Printed("_dt%.2fms_f%d_threads%d", dt_s * 1e3, target_features, threads) +
-         (precision == "double" ? "_double" : "");
+         (precision == sim::Precision::kDouble ? "_double" : "");
 }
 
 std::vector<SweepPoint> DesignSweep(bool quick) {
   if (quick) {
     // The tiny phantom's 1.5k mesh at three steps, and a finer mesh through the variant path.
-    return {{0, 1e-4, 500, 2}, {0, 2e-4, 500, 2}, {0, 4e-4, 500, 2}, {3000, 2e-4, 500, 2}, {0, 2e-4, 500, 2, "double"}};
+    return {{0, 1e-4, 500, 2},
+            {0, 2e-4, 500, 2},
+            {0, 4e-4, 500, 2},
+            {3000, 2e-4, 500, 2},
+            {0, 2e-4, 500, 2, sim::Precision::kDouble}};
   }
   // The default phantom's own mesh is the generator's 8k: the baseline.
   std::vector<SweepPoint> points = {{0, 2e-4, 500, 2}};
@@ -174,7 +179,7 @@ std::vector<SweepPoint> DesignSweep(bool quick) {
   for (double dt_s : {1e-4, 3e-4, 4e-4, 5e-4}) points.push_back({0, dt_s, 500, 2});
   for (int features : {250, 1000}) points.push_back({0, 2e-4, features, 2});
   points.push_back({0, 2e-4, 500, 1});
-  points.push_back({0, 2e-4, 500, 2, "double"});
+  points.push_back({0, 2e-4, 500, 2, sim::Precision::kDouble});
   // Toward real time: coarser meshes with longer steps, on two cores and one;
   // and a finer mesh at the longest step its limit allows (about 0.35 ms on
   // the default phantom: 0.3 ms is safe, 0.4 ms refused).

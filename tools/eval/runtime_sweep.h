@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "pipeline/run_statistics.h"
+#include "sim/precision.h"
 #include "tools/eval/run_errors.h"
 
 namespace dg::tools {
@@ -27,7 +28,7 @@ struct SweepPoint {
   double dt_s = 2e-4;
   int target_features = 500;  // the tracker's (pipeline::FrontEndSettings)
   int threads = 2;
-  std::string precision = "float";  // the simulation's (scene key simulation.precision)
+  sim::Precision precision = sim::Precision::kFloat;  // the simulation's (scene key simulation.precision)
   // Unique and stable, the run's directory: e.g. "tets8000_dt0.20ms_f500_threads2"
   // ("tets-own_..." for the scene's own mesh; "_double" appended in double).
   std::string Name() const;

@@ -8,6 +8,7 @@
 #include "io/sim_problem.h"
 #include "pipeline/stop_request.h"
 #include "sim/error.h"
+#include "sim/precision.h"
 #include "tools/commands.h"
 #include "tools/sim/builtin_problem.h"
 #include "tools/sim/sim_runner.h"
@@ -42,7 +43,7 @@ void RunSimCommand(const SimArguments& args) {
     problem.mesh.tets = args.tets;
   }
   if (!args.precision.empty()) {
-    problem.precision = args.precision == "double" ? io::Precision::kDouble : io::Precision::kFloat;
+    problem.precision = sim::ParsePrecision(args.precision, "--precision");
   }
   if (args.duration_s > 0) problem.duration_s = args.duration_s;
 
@@ -71,8 +72,7 @@ void AddSimCommand(CLI::App& app) {
       ->capture_default_str();
   sim->add_option("--tets", args->tets, "Target tetrahedron count of a generated mesh")->check(CLI::PositiveNumber);
   sim->add_option("--threads", args->threads, "Worker threads (default: all cores)")->check(CLI::PositiveNumber);
-  sim->add_option("--precision", args->precision, "Kernel scalar, overriding the problem")
-      ->check(CLI::IsMember({"float", "double"}));
+  sim->add_option("--precision", args->precision, "Kernel scalar, float or double, overriding the problem");
   sim->add_option("--duration", args->duration_s, "Simulated seconds, overriding the problem")
       ->check(CLI::PositiveNumber);
   sim->add_flag("--print-example", args->print_example, "Print the built-in problem (a template) and exit");

@@ -85,7 +85,7 @@ SimSummary Run(const io::SimProblem& problem, const sim::TetMesh& mesh, const Si
   SimSummary summary;
   summary.nodes = mesh.num_nodes();
   summary.tets = mesh.num_tets();
-  summary.precision = sizeof(T) == 4 ? "float" : "double";
+  summary.precision = sim::ToString(sim::PrecisionOf<T>());
   summary.threads = options.threads;
   summary.dt_s = problem.solver.dt_s;
   summary.substeps_per_step = solver.substeps_per_step();
@@ -198,8 +198,8 @@ std::string SimSummary::Describe() const {
 }
 
 SimSummary RunSimProblem(const io::SimProblem& problem, const sim::TetMesh& mesh, const SimRunOptions& options) {
-  return problem.precision == io::Precision::kFloat ? Run<float>(problem, mesh, options)
-                                                     : Run<double>(problem, mesh, options);
+  return problem.precision == sim::Precision::kFloat ? Run<float>(problem, mesh, options)
+                                                      : Run<double>(problem, mesh, options);
 }
 
 std::vector<std::string> SimOutputNames() {
