@@ -7,12 +7,12 @@
 #include <map>
 #include <mutex>
 #include <sstream>
-#include <thread>
 #include <tuple>
 
 #include <oneapi/tbb/flow_graph.h>
 #include <oneapi/tbb/task_arena.h>
 
+#include "pipeline/pacer.h"
 #include "pipeline/stop_request.h"
 #include "sim/log.h"
 #include "sim/error.h"
@@ -124,6 +124,7 @@ class StageGraph::Runner {
         packets_(plan.options_.max_in_flight),
         free_(graph_),
         ticker_(graph_, [this](tbb::flow_control& control) { return NextTick(control); }),
+        paced_ticks_(graph_),
         join_(graph_),
         source_node_(graph_, flow::serial, [this](const std::tuple<Packet, Tick>& in, SourceNode::output_ports_type& out) {
           Packet packet = std::get<0>(in);
@@ -134,7 +135,15 @@ class StageGraph::Runner {
           }
         }) {
     flow::make_edge(free_, flow::input_port<0>(join_));
-    flow::make_edge(ticker_, flow::input_port<1>(join_));
+    // Offline, the ticker gives a tick whenever the join asks. In real time
+    // the pacer's thread puts each tick when its frame arrives: no TBB
+    // worker waits for the video clock (docs/design.md#threads).
+    if (Realtime()) {
+      pacer_ = std::make_unique<Pacer>([this] { paced_ticks_.try_put(ticks_++); }, [this] { graph_.release_wait(); });
+      flow::make_edge(paced_ticks_, flow::input_port<1>(join_));
+    } else {
+      flow::make_edge(ticker_, flow::input_port<1>(join_));
+    }
     flow::make_edge(join_, source_node_);
     flow::make_edge(flow::output_port<1>(source_node_), free_);
 
@@ -194,8 +203,16 @@ class StageGraph::Runner {
     start_ = std::chrono::steady_clock::now();
     if (SkipToFirstFrame()) {
       for (FramePacket& packet : packets_) free_.try_put(&packet);
-      ticker_.activate();
+      if (pacer_) {
+        graph_.reserve_wait();  // released by the pacer's thread as it ends
+        pacer_->Start();
+        pacing_thread_ = true;
+        pacer_->Schedule(start_);  // the first frame arrives now
+      } else {
+        ticker_.activate();
+      }
       graph_.wait_for_all();
+      if (pacer_) pacer_->Join();
     }
     for (const auto& branch : plan_.branches_) DrainSide(*branch);  // what the last wakes left
     return Finish();
@@ -211,7 +228,7 @@ class StageGraph::Runner {
     if (SkipToFirstFrame()) {
       FramePacket& packet = packets_.front();
       const int sink_index = static_cast<int>(plan_.stage_names_.size()) - 1;
-      while (!Failed() && Capture(packet)) {
+      while (!Failed() && WaitForArrival() && Capture(packet)) {
         for (size_t i = 0; i < plan_.stages_.size(); ++i) {
           Timed(packet, static_cast<int>(i) + 1, [&] { plan_.stages_[i]->Process(packet); });
         }
@@ -283,10 +300,21 @@ class StageGraph::Runner {
 
   bool AtEnd() const { return plan_.options_.end_frame >= 0 && position_ >= plan_.options_.end_frame; }
 
+  bool Realtime() const { return plan_.options_.policy == Policy::kRealtime; }
+
+  // Realtime, inline: the caller's thread waits until the frame at the
+  // current position arrives (the graph's pacer does this on its own thread).
+  // False if the wait was stopped.
+  bool WaitForArrival() {
+    if (!pacer_ || video_clock_start_ns_ < 0) return true;
+    return pacer_->WaitUntil(start_ + std::chrono::nanoseconds(ArrivalNs()));
+  }
+
   // Realtime: the camera delivers frame `first + n` at n / fps on the video
   // clock (started with the first frame). Frames more than the capture buffer
-  // behind the newest delivered one are lost; a frame not yet delivered is
-  // waited for. Returns the frames lost.
+  // behind the newest delivered one are lost. A frame not yet delivered is
+  // never read: the pacer ticks for the frame at the current position only
+  // once it has arrived. Returns the frames lost.
   int PaceToVideoClock() {
     if (video_clock_start_ns_ < 0) video_clock_start_ns_ = NowNs();  // the first frame arrives now
     const double fps = plan_.source_->fps();
@@ -299,8 +327,6 @@ class StageGraph::Runner {
       ++position_;
       ++dropped;
     }
-    const double wait_s = (ArrivalNs() - NowNs()) * 1e-9;
-    if (wait_s > 0) std::this_thread::sleep_for(std::chrono::duration<double>(wait_s));
     return dropped;
   }
 
@@ -320,15 +346,28 @@ class StageGraph::Runner {
     return dropped;
   }
 
-  // The source stage: fills the packet with the next frame; false at the end.
+  // The source stage: fills the packet with the next frame; false at the
+  // end. In real time it then asks the pacer for the tick of the next frame.
   bool Capture(FramePacket& packet) {
+    const bool read = CaptureFrame(packet);
+    if (pacing_thread_) {
+      if (read) {
+        pacer_->Schedule(start_ + std::chrono::nanoseconds(ArrivalNs()));
+      } else {
+        pacer_->Stop();
+      }
+    }
+    return read;
+  }
+
+  bool CaptureFrame(FramePacket& packet) {
     if (source_ended_.load() || Failed()) return false;
     if (const int signal = StopSignal(); signal != 0) {  // the frames in flight still finish
       stopped_by_ = signal;
       source_ended_ = true;
       return false;
     }
-    const bool realtime = plan_.options_.policy == Policy::kRealtime;
+    const bool realtime = Realtime();
     const int dropped = realtime ? PaceToVideoClock() : SkipFramesToDrop();
     // Offline, capture starts after pacing. In real time it starts when the
     // camera delivered the frame, so the source's span and the frame's
@@ -427,6 +466,7 @@ class StageGraph::Runner {
     failed_sequence_ = sequence;
     result_.error = message;
     Logger("pipeline").error("{}", message);
+    if (pacer_) pacer_->Stop();  // the source reads no more: no frame to wait for
   }
 
   StageGraph& plan_;
@@ -440,7 +480,8 @@ class StageGraph::Runner {
   std::int64_t trailing_drops_ = 0;
   std::int64_t video_clock_start_ns_ = -1;  // realtime: when the first frame was live
   int stopped_by_ = 0;  // the signal whose stop request ended the reading
-  Tick ticks_ = 0;  // written by the ticker only
+  Tick ticks_ = 0;  // written by the ticker, or in real time by the pacer's thread, only
+  bool pacing_thread_ = false;  // realtime, in the graph: the pacer's thread ticks
 
   static constexpr std::int64_t kNone = INT64_MAX;
   std::atomic<bool> source_ended_{false};
@@ -451,7 +492,9 @@ class StageGraph::Runner {
 
   flow::graph graph_;
   flow::buffer_node<Packet> free_;
-  flow::input_node<Tick> ticker_;
+  flow::input_node<Tick> ticker_;                 // offline
+  flow::buffer_node<Tick> paced_ticks_;           // realtime: the pacer's ticks
+  std::unique_ptr<Pacer> pacer_;                  // realtime only
   flow::join_node<std::tuple<Packet, Tick>, flow::reserving> join_;
   SourceNode source_node_;
   std::vector<std::unique_ptr<Sequencer>> sequencers_;

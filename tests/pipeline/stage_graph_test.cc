@@ -8,8 +8,9 @@
 #include <atomic>
 #include <chrono>
 #include <fstream>
+#include <latch>
 #include <map>
-#include <random>
+#include <mutex>
 #include <set>
 #include <thread>
 
@@ -64,18 +65,35 @@ class CountingSource final : public PacketSource {
   CaptureSource capture_;
 };
 
-// A stateless stage that sleeps a random 0-3 ms: frames overtake each other.
-class JitterStage final : public PacketStage {
+// A stateless stage that records the order in which frames finish it. With
+// `overtake` (two threads or more), frame 0 waits until frame 1 has finished,
+// so frame 1 overtakes it for certain: the stage runs two frames at once, and
+// the sequencer after it must restore the order.
+class OvertakingStage final : public PacketStage {
  public:
+  explicit OvertakingStage(bool overtake) : overtake_(overtake) {}
   const std::string& name() const override { return name_; }
   bool stateful() const override { return false; }
   void Process(FramePacket& packet) override {
-    std::mt19937 random(static_cast<unsigned>(packet.index));
-    std::this_thread::sleep_for(std::chrono::microseconds(random() % 3000));
+    if (overtake_ && packet.index == 0) frame_1_done_.wait();
+    {
+      std::lock_guard lock(mutex_);
+      finished_.push_back(packet.index);
+    }
+    if (overtake_ && packet.index == 1) frame_1_done_.count_down();
+  }
+  // The frames in the order they finished this stage (after the run).
+  std::vector<std::int64_t> finished() const {
+    std::lock_guard lock(mutex_);
+    return finished_;
   }
 
  private:
-  std::string name_ = "jitter";
+  std::string name_ = "overtake";
+  bool overtake_;
+  std::latch frame_1_done_{1};
+  mutable std::mutex mutex_;
+  std::vector<std::int64_t> finished_;
 };
 
 // A stateful stage: records the order it sees, sleeps, and may fail.
@@ -111,7 +129,8 @@ class RecordingSink final : public GraphSink {
 
 struct Outcome {
   GraphRunResult result;
-  std::vector<std::int64_t> recorded;
+  std::vector<std::int64_t> recorded;        // as the stateful stage saw them
+  std::vector<std::int64_t> overtaken;       // as frames finished the stateless stage
   RecordingSink sink;
 };
 
@@ -120,7 +139,9 @@ Outcome RunTestGraph(int threads, const GraphOptions& options, double sleep_ms, 
   in_flight = 0;
   max_in_flight = 0;
   std::vector<std::unique_ptr<PacketStage>> stages;
-  stages.push_back(std::make_unique<JitterStage>());
+  auto overtaking = std::make_unique<OvertakingStage>(threads > 1 && options.first_frame == 0);
+  OvertakingStage* overtake = overtaking.get();
+  stages.push_back(std::move(overtaking));
   auto recorder = std::make_unique<RecordingStage>(sleep_ms, fail_at);
   RecordingStage* recorded = recorder.get();
   stages.push_back(std::move(recorder));
@@ -128,6 +149,7 @@ Outcome RunTestGraph(int threads, const GraphOptions& options, double sleep_ms, 
   Outcome outcome;
   outcome.result = graph.Run(outcome.sink);
   outcome.recorded = recorded->seen;
+  outcome.overtaken = overtake->finished();
   return outcome;
 }
 
@@ -255,13 +277,19 @@ TEST_CASE("graph: offline runs are lossless and ordered on 1 and 2 threads", "[p
   REQUIRE(frames >= 20);
   for (int threads : {1, 2}) {
     CAPTURE(threads);
-    const Outcome outcome = RunTestGraph(threads, {}, 2.0);
+    const Outcome outcome = RunTestGraph(threads, {}, 0);
     REQUIRE(outcome.result.complete);
     REQUIRE(outcome.result.frames_done == frames);
+    REQUIRE(outcome.overtaken.size() == static_cast<size_t>(frames));
+    if (threads > 1) {  // frame 1 finished the stateless stage before frame 0 ...
+      REQUIRE(outcome.overtaken[0] == 1);
+      REQUIRE(outcome.overtaken[1] == 0);
+    }
+    // ... and the stateful stage and the sink still saw every frame in order.
     REQUIRE(outcome.sink.frames == Range(0, frames));
     REQUIRE(outcome.recorded == Range(0, frames));
     REQUIRE(outcome.sink.drops.empty());
-    REQUIRE(outcome.sink.timing_rows == static_cast<std::size_t>(frames) * 4);  // capture, jitter, recorder, sink
+    REQUIRE(outcome.sink.timing_rows == static_cast<std::size_t>(frames) * 4);  // capture, overtake, recorder, sink
     REQUIRE(max_in_flight.load() <= GraphOptions{}.max_in_flight);
   }
 }
