@@ -212,6 +212,12 @@ TEST_CASE("fem stage: surface, volume and combined modes on the tiny phantom", "
     REQUIRE(run.frames == truth.frames);
     REQUIRE(run.min_jacobian > 0.5);
     if (mode != sim::SimulationMode::kSurface) REQUIRE(sim::Median(run.internal_error_mm) < sim::Median(frozen_mm));
+    // Regression bounds on the median internal-point error, about twice what
+    // each mode reaches: 0.605 mm surface, 0.019 mm volume, 0.070 mm combined.
+    const double regression_bound_mm = mode == sim::SimulationMode::kSurface  ? 1.2
+                                       : mode == sim::SimulationMode::kVolume ? 0.04
+                                                                              : 0.14;
+    CHECK(sim::Median(run.internal_error_mm) < regression_bound_mm);
     if (mode != sim::SimulationMode::kVolume) {
       // Surface mode: constrained nodes sit on their targets at frame times
       // (float: round-off of millimetre displacements).
