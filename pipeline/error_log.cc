@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include <Eigen/Geometry>
 
@@ -32,7 +33,7 @@ Moments MomentsOf(const std::vector<double>& values) {
   return m;
 }
 
-std::vector<io::H5Column> ErrorColumns(int internal_points, int fiducials) {
+std::vector<io::H5Column> ErrorColumns(int surface_points, int internal_points, int fiducials) {
   using io::H5Type;
   std::vector<io::H5Column> columns = {{"frame", H5Type::kInt64}, {"t_s", H5Type::kDouble},
                                        {"surface_points", H5Type::kInt32}};
@@ -41,6 +42,7 @@ std::vector<io::H5Column> ErrorColumns(int internal_points, int fiducials) {
     columns.push_back({name, H5Type::kDouble});
   }
   // A zero-width column is not allowed: one zero stands in for none.
+  columns.push_back({"surface_mm", H5Type::kDouble, static_cast<std::size_t>(std::max(1, surface_points))});
   columns.push_back({"internal_mm", H5Type::kDouble, static_cast<std::size_t>(std::max(1, internal_points))});
   columns.push_back({"fiducial_sim_mm", H5Type::kDouble, static_cast<std::size_t>(std::max(1, fiducials))});
   columns.push_back({"fiducial_model_mm", H5Type::kDouble, static_cast<std::size_t>(std::max(1, fiducials))});
@@ -81,7 +83,7 @@ ErrorLog::Truth ErrorLog::ReadTruth(const std::string& truth_h5) {
 ErrorLog::ErrorLog(io::RunLog& log, const std::string& truth_h5, const sim::TetMesh& mesh,
                    const io::CameraCalibration& left, stages::FiducialMotion scan)
     : truth_(ReadTruth(truth_h5)),
-      table_(log.AddTable("/errors", ErrorColumns(truth_.internal.count, truth_.fiducials.count))),
+      table_(log.AddTable("/errors", ErrorColumns(truth_.surface.count, truth_.internal.count, truth_.fiducials.count))),
       left_(left),
       scan_(std::move(scan)),
       surface_embedding_(mesh, truth_.surface.reference_S),
@@ -114,6 +116,11 @@ void ErrorLog::Consume(const FramePacket& packet) {
   const stages::overlay::SurfaceOverlayError surface =
       stages::overlay::MeasureSurfaceOverlayError(left_, drawn_C, true_uv, true_C, visible);
   const Moments px = MomentsOf(surface.error_px), mm = MomentsOf(surface.error_mm);
+  // Per point, NaN where the left camera does not see it: a point's course
+  // through a window (the paper's "typical feature") and where the maximum
+  // sits are read from it.
+  std::vector<double> surface_mm(S, std::numeric_limits<double>::quiet_NaN());
+  for (size_t k = 0; k < surface.points.size(); ++k) surface_mm[surface.points[k]] = surface.error_mm[k];
 
   const int I = truth_.internal.count;
   const Eigen::Matrix3Xd internal_C = T_C_S * internal_embedding_.Rebuild(nodes_S);
@@ -134,12 +141,12 @@ void ErrorLog::Consume(const FramePacket& packet) {
       fiducial_model_mm[i] = 1e3 * (T_C_S * model_S - true_fiducials_C.col(i)).norm();
     }
   }
-  for (std::vector<double>* values : {&internal_mm, &fiducial_sim_mm, &fiducial_model_mm}) {
+  for (std::vector<double>* values : {&surface_mm, &internal_mm, &fiducial_sim_mm, &fiducial_model_mm}) {
     if (values->empty()) values->push_back(0);  // a zero-width column is not allowed: one zero stands in
   }
 
   table_.AppendRow({packet.index, packet.t_s, static_cast<std::int32_t>(surface.points.size()), px.mean, px.rms,
-                    px.max, mm.mean, mm.rms, mm.max, internal.mean, internal.rms, internal.max, internal_mm,
+                    px.max, mm.mean, mm.rms, mm.max, internal.mean, internal.rms, internal.max, surface_mm, internal_mm,
                     fiducial_sim_mm, fiducial_model_mm});
 }
 

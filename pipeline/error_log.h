@@ -25,7 +25,8 @@ namespace dg::pipeline {
 //   surface: the surface points the left camera sees, the distance in the
 //            left image between where the overlay draws them and where they
 //            are (px), and in mm at their depth: surface_points, then
-//            surface_{mean,rms,max}_{px,mm};
+//            surface_{mean,rms,max}_{px,mm}, and per point surface_mm (one
+//            column per truth point, NaN where the left camera does not see it);
 //   internal: the internal points' 3D distance to the truth (mm), per point
 //            (internal_mm, one column per point) and internal_{mean,rms,max}_mm;
 //   fiducials (paper Table 2): per fiducial, the 3D distance to the truth of

@@ -5,6 +5,7 @@
 // run's summary from the saved log. With --video-layout side_by_side the video
 // and the snapshots show both eyes, each with its own eye's overlays.
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -102,6 +103,25 @@ TEST_CASE("run: the tiny phantom end to end, and its report", "[tools][integrati
   // tiny preset is coarse; the protocol measures the default phantom.
   for (double internal_max_mm : Doubles(file, "/errors/internal_max_mm")) CHECK(internal_max_mm < 1.75);
   for (double surface_mean_mm : Doubles(file, "/errors/surface_mean_mm")) CHECK(surface_mean_mm < 0.68);
+  // The per-point surface column holds each frame's measured points and nothing else: as many
+  // finite entries as surface_points, their largest the frame's surface_max_mm.
+  const std::vector<double> surface_points = Doubles(file, "/errors/surface_points");
+  const std::vector<double> surface_max_mm = Doubles(file, "/errors/surface_max_mm");
+  const std::vector<double> surface_mm = Doubles(file, "/errors/surface_mm");
+  const size_t truth_points = surface_mm.size() / surface_points.size();
+  REQUIRE(truth_points * surface_points.size() == surface_mm.size());
+  for (size_t row = 0; row < surface_points.size(); ++row) {
+    int seen = 0;
+    double largest = 0;
+    for (size_t p = 0; p < truth_points; ++p) {
+      const double e = surface_mm[row * truth_points + p];
+      if (std::isnan(e)) continue;
+      ++seen;
+      largest = std::max(largest, e);
+    }
+    CHECK(seen == surface_points[row]);
+    CHECK(largest == surface_max_mm[row]);
+  }
   for (double margin : Doubles(file, "/sim/dt_over_dt_critical")) CHECK(margin < 1);
   // Every frame composed; each overlay drew or dropped every geometry handed to it.
   CHECK(Rows(file, "/composite/layer_age_frames") == static_cast<hsize_t>(frames));
