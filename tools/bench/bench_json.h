@@ -6,7 +6,7 @@
 
 namespace dg::tools {
 
-// printf into a string, for one record's JSON fields.
+// printf into a string, for the tables and texts a benchmark prints.
 template <typename... Args>
 std::string Printed(const char* format, Args... args) {
   const int size = std::snprintf(nullptr, 0, format, args...);
@@ -15,12 +15,15 @@ std::string Printed(const char* format, Args... args) {
   return text;
 }
 
-// The saved figures of a benchmark: a JSON array, one object per line, each
-// the record's own fields (`"key": value, ...`, one string per record)
-// followed by the machine's (cpu, logical_cores, simd, compiler) and the
-// run's provenance (commit, date, load_average_before at the process's start
-// and load_average_after now, 1/5/15 minutes).
+// The saved figures of a benchmark: a JSON array (nlohmann's writer, two
+// spaces of indent), one object per record, each the record's own fields
+// (records: one JSON object's text each, JsonText(record, -1) of
+// tools/json_text.h, its keys in order) followed by the
+// machine's (cpu, logical_cores, simd, compiler) and the run's provenance
+// (commit, date, load_average_before at the process's start and
+// load_average_after now, 1/5/15 minutes). A figure that is not a finite
+// number is written as null (docs/benchmarks.md).
 // @throws dg::Error when the file cannot be written.
-void WriteBenchJson(const std::string& path, const std::vector<std::string>& record_fields);
+void WriteBenchJson(const std::string& path, const std::vector<std::string>& records);
 
 }  // namespace dg::tools

@@ -8,6 +8,7 @@
 
 #include <unistd.h>
 
+#include <nlohmann/json.hpp>
 #include <tbb/global_control.h>
 
 #include "io/elapsed_time.h"
@@ -108,13 +109,19 @@ std::vector<OverlayBenchRecord> RunOverlayBench(const OverlayBenchOptions& optio
 }
 
 void WriteOverlayBenchJson(const std::string& path, const std::vector<OverlayBenchRecord>& records) {
-  std::vector<std::string> fields;
+  std::vector<std::string> texts;
   for (const OverlayBenchRecord& r : records) {
-    fields.push_back(Printed("\"overlay\": %s, \"threads\": %d, \"width\": %d, \"height\": %d, \"frames\": %d, "
-                             "\"ms_median\": %.4g, \"ms_p95\": %.4g, \"fps\": %.4g",
-                             JsonQuoted(r.overlay).c_str(), r.threads, r.width, r.height, r.frames, r.ms_median, r.ms_p95, r.fps));
+    const nlohmann::ordered_json record = {{"overlay", r.overlay},
+                                           {"threads", r.threads},
+                                           {"width", r.width},
+                                           {"height", r.height},
+                                           {"frames", r.frames},
+                                           {"ms_median", Significant(r.ms_median, 4)},
+                                           {"ms_p95", Significant(r.ms_p95, 4)},
+                                           {"fps", Significant(r.fps, 4)}};
+    texts.push_back(JsonText(record, -1));
   }
-  WriteBenchJson(path, fields);
+  WriteBenchJson(path, texts);
 }
 
 std::string OverlayBenchTable(const std::vector<OverlayBenchRecord>& records) {

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cstdio>
 
+#include <nlohmann/json.hpp>
 #include <tbb/global_control.h>
 
 #include "io/scene.h"
@@ -70,12 +71,11 @@ std::vector<PipelineBenchRecord> RunPipelineBench(const PipelineBenchOptions& op
 }
 
 std::string StageTimingsJson(const pipeline::RunStatistics& statistics) {
-  std::string stages;
+  nlohmann::ordered_json stages = nlohmann::ordered_json::object();
   for (const pipeline::StageStatistics& stage : statistics.stages) {
-    stages += Printed("%s%s: {\"median_ms\": %.4g, \"p95_ms\": %.4g}", stages.empty() ? "" : ", ",
-                      JsonQuoted(stage.name).c_str(), stage.median_ms, stage.p95_ms);
+    stages[stage.name] = {{"median_ms", Significant(stage.median_ms, 4)}, {"p95_ms", Significant(stage.p95_ms, 4)}};
   }
-  return stages;
+  return JsonText(stages, -1);
 }
 
 std::string PipelineBenchTable(const std::vector<PipelineBenchRecord>& records) {
@@ -99,18 +99,22 @@ std::string PipelineBenchTable(const std::vector<PipelineBenchRecord>& records) 
 }
 
 void WritePipelineBenchJson(const std::string& path, const std::vector<PipelineBenchRecord>& records) {
-  std::vector<std::string> fields;
+  std::vector<std::string> texts;
   for (const PipelineBenchRecord& r : records) {
     const pipeline::RunStatistics& s = r.statistics;
-    const std::string stages = StageTimingsJson(s);
-    fields.push_back(Printed("\"threads\": %d, \"mode\": %s, \"frames\": %lld, \"fps\": %.4g, \"realtime_factor\": %.4g, "
-                             "\"latency_ms_median\": %.4g, \"latency_ms_p95\": %.4g, \"overhead_pct\": %.3g, "
-                             "\"speedup\": %.3g, \"stages\": {%s}",
-                             r.threads, JsonQuoted(r.mode).c_str(), static_cast<long long>(s.frames), s.frames_per_s,
-                             s.realtime_factor, s.latency_median_ms, s.latency_p95_ms, r.overhead_pct, r.speedup,
-                             stages.c_str()));
+    const nlohmann::ordered_json record = {{"threads", r.threads},
+                                           {"mode", r.mode},
+                                           {"frames", s.frames},
+                                           {"fps", Significant(s.frames_per_s, 4)},
+                                           {"realtime_factor", Significant(s.realtime_factor, 4)},
+                                           {"latency_ms_median", Significant(s.latency_median_ms, 4)},
+                                           {"latency_ms_p95", Significant(s.latency_p95_ms, 4)},
+                                           {"overhead_pct", Significant(r.overhead_pct, 3)},
+                                           {"speedup", Significant(r.speedup, 3)},
+                                           {"stages", nlohmann::ordered_json::parse(StageTimingsJson(s))}};
+    texts.push_back(JsonText(record, -1));
   }
-  WriteBenchJson(path, fields);
+  WriteBenchJson(path, texts);
 }
 
 }  // namespace dg::tools

@@ -29,7 +29,7 @@ struct PipelineBenchRecord {
 
 // @throws dg::Error for an unreadable scene.
 std::vector<PipelineBenchRecord> RunPipelineBench(const PipelineBenchOptions& options, bool progress);
-// Each stage's timings as JSON members: "name": {"median_ms": .., "p95_ms": ..}, ...
+// Each stage's timings as one JSON object's text: {"name": {"median_ms": .., "p95_ms": ..}, ...}
 std::string StageTimingsJson(const pipeline::RunStatistics& statistics);
 std::string PipelineBenchTable(const std::vector<PipelineBenchRecord>& records);
 // Records with threads, mode, frames, fps, realtime_factor, latency_ms_median,

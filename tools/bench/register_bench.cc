@@ -8,6 +8,7 @@
 
 #include <unistd.h>
 
+#include <nlohmann/json.hpp>
 #include <opencv2/core/utility.hpp>
 #include <tbb/global_control.h>
 
@@ -101,17 +102,23 @@ std::vector<RegisterBenchRecord> RunRegisterBench(const RegisterBenchOptions& op
 }
 
 void WriteRegisterBenchJson(const std::string& path, const std::vector<RegisterBenchRecord>& records) {
-  std::vector<std::string> fields;
+  std::vector<std::string> texts;
   for (const RegisterBenchRecord& r : records) {
-    fields.push_back(Printed("\"threads\": %d, \"fiducials\": %d, \"frames\": %d, \"observations\": %d, \"cycles\": %.4g, "
-                             "\"ms_median\": %.4g, \"ms_max\": %.4g, \"rotation_error_deg\": %.4g, "
-                             "\"translation_error_mm\": %.4g, \"phase_shift_error_ms\": %.4g, \"residual_mm_left\": %.4g, "
-                             "\"residual_mm_right\": %.4g",
-                             r.threads, r.fiducials, r.frames, r.observations, r.cycles, r.ms_median, r.ms_max,
-                             r.rotation_error_deg, r.translation_error_mm, r.phase_shift_error_ms, r.residual_mm_left,
-                             r.residual_mm_right));
+    const nlohmann::ordered_json record = {{"threads", r.threads},
+                                           {"fiducials", r.fiducials},
+                                           {"frames", r.frames},
+                                           {"observations", r.observations},
+                                           {"cycles", Significant(r.cycles, 4)},
+                                           {"ms_median", Significant(r.ms_median, 4)},
+                                           {"ms_max", Significant(r.ms_max, 4)},
+                                           {"rotation_error_deg", Significant(r.rotation_error_deg, 4)},
+                                           {"translation_error_mm", Significant(r.translation_error_mm, 4)},
+                                           {"phase_shift_error_ms", Significant(r.phase_shift_error_ms, 4)},
+                                           {"residual_mm_left", Significant(r.residual_mm_left, 4)},
+                                           {"residual_mm_right", Significant(r.residual_mm_right, 4)}};
+    texts.push_back(JsonText(record, -1));
   }
-  WriteBenchJson(path, fields);
+  WriteBenchJson(path, texts);
 }
 
 std::string RegisterBenchTable(const std::vector<RegisterBenchRecord>& records) {

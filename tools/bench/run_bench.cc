@@ -6,6 +6,8 @@
 
 #include <unistd.h>
 
+#include <nlohmann/json.hpp>
+
 #include "pipeline/run_scene.h"
 #include "sim/statistics.h"
 #include "tools/bench/bench_json.h"
@@ -85,19 +87,22 @@ std::string RunBenchTable(const std::vector<RunBenchRecord>& records) {
 }
 
 void WriteRunBenchJson(const std::string& path, const std::vector<RunBenchRecord>& records) {
-  std::vector<std::string> fields;
+  std::vector<std::string> texts;
   for (const RunBenchRecord& r : records) {
     const pipeline::RunStatistics& s = r.statistics;
-    const std::string stages = StageTimingsJson(s);
-    fields.push_back(Printed("\"policy\": %s, \"threads\": %d, \"repeat\": %d, \"frames\": %lld, \"dropped\": %lld, "
-                             "\"realtime_factor\": %.4g, \"latency_ms_median\": %.4g, \"latency_ms_p95\": %.4g, "
-                             "\"simulated_frames\": %lld, \"stages\": {%s}",
-                             JsonQuoted(pipeline::PolicyName(r.policy)).c_str(), r.threads, r.repeat + 1,
-                             static_cast<long long>(s.frames), static_cast<long long>(s.dropped), s.realtime_factor,
-                             s.latency_median_ms, s.latency_p95_ms, static_cast<long long>(r.simulated_frames),
-                             stages.c_str()));
+    const nlohmann::ordered_json record = {{"policy", pipeline::PolicyName(r.policy)},
+                                           {"threads", r.threads},
+                                           {"repeat", r.repeat + 1},
+                                           {"frames", s.frames},
+                                           {"dropped", s.dropped},
+                                           {"realtime_factor", Significant(s.realtime_factor, 4)},
+                                           {"latency_ms_median", Significant(s.latency_median_ms, 4)},
+                                           {"latency_ms_p95", Significant(s.latency_p95_ms, 4)},
+                                           {"simulated_frames", r.simulated_frames},
+                                           {"stages", nlohmann::ordered_json::parse(StageTimingsJson(s))}};
+    texts.push_back(JsonText(record, -1));
   }
-  WriteBenchJson(path, fields);
+  WriteBenchJson(path, texts);
 }
 
 }  // namespace dg::tools

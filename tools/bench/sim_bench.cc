@@ -7,6 +7,7 @@
 #include <numeric>
 #include <random>
 
+#include <nlohmann/json.hpp>
 #include <tbb/global_control.h>
 
 #include "io/gmsh_mesher.h"
@@ -334,22 +335,31 @@ std::vector<SimBenchRecord> RunSimBench(const SimBenchOptions& options, bool pro
 }
 
 void WriteSimBenchJson(const std::string& path, const std::vector<SimBenchRecord>& records) {
-  std::vector<std::string> fields;
+  std::vector<std::string> texts;
   for (const SimBenchRecord& r : records) {
-    fields.push_back(Printed("\"mesh\": %s, \"mesh_tets\": %d, \"mesh_nodes\": %d, \"threads\": %d, \"precision\": %s, "
-                             "\"mode\": %s, \"tet_steps_per_s\": %.6g, \"tet_steps_per_s_min\": %.6g, "
-                             "\"tet_steps_per_s_max\": %.6g, \"speedup_over_1_thread\": %.4g, \"barrier_ns\": %.4g, "
-                             "\"realtime_factor\": %.6g, \"dt_s\": %.6g, \"dt_critical_s\": %.6g, \"steps_per_repeat\": %d, "
-                             "\"repeats\": %d, \"sequential_tet_steps_per_s\": %.6g, \"concurrent_gain\": %.4g, "
-                             "\"inverse_interval_steps\": %d, \"motion_error_m\": %.4g",
-                             JsonQuoted(r.mesh).c_str(), r.mesh_tets, r.mesh_nodes, r.threads,
-                             JsonQuoted(r.precision).c_str(), JsonQuoted(r.mode).c_str(), r.tet_steps_per_s,
-                             r.tet_steps_per_s_min, r.tet_steps_per_s_max, r.speedup_over_1_thread, r.barrier_ns,
-                             r.realtime_factor, r.dt_s, r.dt_critical_s, r.steps_per_repeat, r.repeats,
-                             r.sequential_tet_steps_per_s, r.concurrent_gain, r.inverse_interval_steps,
-                             r.motion_error_m));
+    const nlohmann::ordered_json record = {{"mesh", r.mesh},
+                                           {"mesh_tets", r.mesh_tets},
+                                           {"mesh_nodes", r.mesh_nodes},
+                                           {"threads", r.threads},
+                                           {"precision", r.precision},
+                                           {"mode", r.mode},
+                                           {"tet_steps_per_s", Significant(r.tet_steps_per_s, 6)},
+                                           {"tet_steps_per_s_min", Significant(r.tet_steps_per_s_min, 6)},
+                                           {"tet_steps_per_s_max", Significant(r.tet_steps_per_s_max, 6)},
+                                           {"speedup_over_1_thread", Significant(r.speedup_over_1_thread, 4)},
+                                           {"barrier_ns", Significant(r.barrier_ns, 4)},
+                                           {"realtime_factor", Significant(r.realtime_factor, 6)},
+                                           {"dt_s", Significant(r.dt_s, 6)},
+                                           {"dt_critical_s", Significant(r.dt_critical_s, 6)},
+                                           {"steps_per_repeat", r.steps_per_repeat},
+                                           {"repeats", r.repeats},
+                                           {"sequential_tet_steps_per_s", Significant(r.sequential_tet_steps_per_s, 6)},
+                                           {"concurrent_gain", Significant(r.concurrent_gain, 4)},
+                                           {"inverse_interval_steps", r.inverse_interval_steps},
+                                           {"motion_error_m", Significant(r.motion_error_m, 4)}};
+    texts.push_back(JsonText(record, -1));
   }
-  WriteBenchJson(path, fields);
+  WriteBenchJson(path, texts);
 }
 
 std::string SimBenchTable(const std::vector<SimBenchRecord>& records) {

@@ -8,6 +8,7 @@
 
 #include <unistd.h>
 
+#include <nlohmann/json.hpp>
 #include <opencv2/core/utility.hpp>
 #include <tbb/global_control.h>
 
@@ -140,16 +141,27 @@ std::vector<VisionBenchRecord> RunVisionBench(const VisionBenchOptions& options,
 }
 
 void WriteVisionBenchJson(const std::string& path, const std::vector<VisionBenchRecord>& records) {
-  std::vector<std::string> fields;
+  std::vector<std::string> texts;
   for (const VisionBenchRecord& r : records) {
-    fields.push_back(Printed("\"codec\": \"%s\", \"threads\": %d, \"width\": %d, \"height\": %d, \"frames\": %d, \"features\": %d, "
-                             "\"ms_median\": %.4g, \"ms_p95\": %.4g, \"fps\": %.4g, \"capture_ms\": %.4g, "
-                             "\"rectify_ms\": %.4g, \"temporal_ms\": %.4g, \"detect_ms\": %.4g, \"detect_ms_max\": %.4g, "
-                             "\"stereo_ms\": %.4g, \"triangulate_ms\": %.4g",
-                             r.codec.c_str(), r.threads, r.width, r.height, r.frames, r.features, r.ms_median, r.ms_p95, r.fps, r.capture_ms,
-                             r.rectify_ms, r.temporal_ms, r.detect_ms, r.detect_ms_max, r.stereo_ms, r.triangulate_ms));
+    const nlohmann::ordered_json record = {{"codec", r.codec},
+                                           {"threads", r.threads},
+                                           {"width", r.width},
+                                           {"height", r.height},
+                                           {"frames", r.frames},
+                                           {"features", r.features},
+                                           {"ms_median", Significant(r.ms_median, 4)},
+                                           {"ms_p95", Significant(r.ms_p95, 4)},
+                                           {"fps", Significant(r.fps, 4)},
+                                           {"capture_ms", Significant(r.capture_ms, 4)},
+                                           {"rectify_ms", Significant(r.rectify_ms, 4)},
+                                           {"temporal_ms", Significant(r.temporal_ms, 4)},
+                                           {"detect_ms", Significant(r.detect_ms, 4)},
+                                           {"detect_ms_max", Significant(r.detect_ms_max, 4)},
+                                           {"stereo_ms", Significant(r.stereo_ms, 4)},
+                                           {"triangulate_ms", Significant(r.triangulate_ms, 4)}};
+    texts.push_back(JsonText(record, -1));
   }
-  WriteBenchJson(path, fields);
+  WriteBenchJson(path, texts);
 }
 
 std::string VisionBenchTable(const std::vector<VisionBenchRecord>& records) {

@@ -4,6 +4,8 @@
 #include <fstream>
 #include <sstream>
 
+#include <nlohmann/json.hpp>
+
 #include "sim/error.h"
 #include "tools/json_text.h"
 
@@ -38,16 +40,15 @@ std::string DescribeReport(const StereoCalibrationReport& report) {
 void WriteReportJson(const std::string& path, const StereoCalibrationReport& report) {
   std::ofstream file(path);
   if (!file) throw Error("cannot write the JSON report", path, "check that the directory exists and is writable");
-  file << "{\n"
-       << Format("  \"rms_left_px\": %.6f,\n  \"rms_right_px\": %.6f,\n  \"rms_stereo_px\": %.6f,\n", report.rms_left_px,
-                 report.rms_right_px, report.rms_stereo_px)
-       << Format("  \"epipolar_error_px\": %.6f,\n  \"baseline_m\": %.9f,\n", report.epipolar_error_px,
-                 report.calibration.T_m.norm())
-       << "  \"views_used\": " << report.used.size() << ",\n"
-       << "  \"views_rejected\": " << report.rejected.size() << ",\n"
-       << "  \"rejected\": [";
-  for (size_t i = 0; i < report.rejected.size(); ++i) file << (i ? ", " : "") << JsonQuoted(report.rejected[i]);
-  file << "]\n}\n";
+  const nlohmann::ordered_json json = {{"rms_left_px", Decimals(report.rms_left_px, 6)},
+                                      {"rms_right_px", Decimals(report.rms_right_px, 6)},
+                                      {"rms_stereo_px", Decimals(report.rms_stereo_px, 6)},
+                                      {"epipolar_error_px", Decimals(report.epipolar_error_px, 6)},
+                                      {"baseline_m", Decimals(report.calibration.T_m.norm(), 9)},
+                                      {"views_used", report.used.size()},
+                                      {"views_rejected", report.rejected.size()},
+                                      {"rejected", report.rejected}};
+  file << JsonText(json);
   if (!file) throw Error("cannot write the JSON report", path, "check the free space");
 }
 

@@ -8,6 +8,7 @@
 #include <map>
 #include <tuple>
 
+#include <nlohmann/json.hpp>
 #include <yaml-cpp/yaml.h>
 
 #include "io/h5_file.h"
@@ -105,15 +106,13 @@ std::vector<const RunErrors*> RunsOfMode(const ProtocolResult& result, sim::Simu
 }
 
 // The phase figures of a mode's runs, when they had a live phase and a truth.
-std::string PhaseJson(const ErrorFigures& f) {
-  if (f.phase_frames == 0) return {};
-  char text[256];
-  std::snprintf(text, sizeof text,
-                ", \"phase_frames\": %d, \"phase_error_mean_ms\": %.6g, \"phase_error_max_ms\": %.6g, "
-                "\"registered_phase_error_mean_ms\": %.6g, \"registered_phase_error_max_ms\": %.6g",
-                f.phase_frames, f.phase_error_mean_ms, f.phase_error_max_ms, f.registered_phase_error_mean_ms,
-                f.registered_phase_error_max_ms);
-  return text;
+void AddPhaseJson(const ErrorFigures& f, nlohmann::ordered_json* json) {
+  if (f.phase_frames == 0) return;
+  (*json)["phase_frames"] = f.phase_frames;
+  (*json)["phase_error_mean_ms"] = Significant(f.phase_error_mean_ms, 6);
+  (*json)["phase_error_max_ms"] = Significant(f.phase_error_max_ms, 6);
+  (*json)["registered_phase_error_mean_ms"] = Significant(f.registered_phase_error_mean_ms, 6);
+  (*json)["registered_phase_error_max_ms"] = Significant(f.registered_phase_error_max_ms, 6);
 }
 
 // The cardiac phase against the truth per mode, when the runs estimated it live.
@@ -341,29 +340,30 @@ std::string WriteProtocolReport(const ProtocolResult& result, const std::string&
 }
 
 void WriteProtocolJson(const ProtocolResult& result, const std::string& path) {
-  std::string json = "{\n  \"window_frames\": " + std::to_string(result.window_frames) +
-                     ", \"window_cycles\": " + Fixed(result.window_cycles, 4) + ",\n  \"modes\": [\n";
-  std::vector<size_t> ran;  // a mode no run log is of has no entry: its figures do not exist
+  using Json = nlohmann::ordered_json;
+  Json modes = Json::array();  // a mode no run log is of has no entry: its figures do not exist
   for (size_t m = 0; m < ProtocolModes().size(); ++m) {
-    if (result.mode_ran[m]) ran.push_back(m);
-  }
-  for (size_t m : ran) {
+    if (!result.mode_ran[m]) continue;
     const ErrorFigures& f = result.per_mode[m];
     std::vector<double> factors;
     for (const RunErrors* run : RunsOfMode(result, ProtocolModes()[m])) factors.push_back(run->realtime_factor);
-    char line[512];
-    std::snprintf(line, sizeof line,
-                  "    {\"mode\": %s, \"surface_avg_mm\": %.6g, \"surface_max_mm\": %.6g, \"surface_rms_mm\": %.6g, "
-                  "\"internal_avg_mm\": %.6g, \"internal_max_mm\": %.6g, \"internal_rms_mm\": %.6g, "
-                  "\"realtime_factor\": %.6g, \"frames\": %d%s}%s\n",
-                  JsonQuoted(sim::ToString(ProtocolModes()[m])).c_str(), f.surface_avg_mm, f.surface_max_mm,
-                  f.surface_rms_mm, f.internal_avg_mm, f.internal_max_mm, f.internal_rms_mm, sim::Median(factors), f.frames,
-                  PhaseJson(f).c_str(), m != ran.back() ? "," : "");
-    json += line;
+    Json mode = {{"mode", sim::ToString(ProtocolModes()[m])},
+                 {"surface_avg_mm", Significant(f.surface_avg_mm, 6)},
+                 {"surface_max_mm", Significant(f.surface_max_mm, 6)},
+                 {"surface_rms_mm", Significant(f.surface_rms_mm, 6)},
+                 {"internal_avg_mm", Significant(f.internal_avg_mm, 6)},
+                 {"internal_max_mm", Significant(f.internal_max_mm, 6)},
+                 {"internal_rms_mm", Significant(f.internal_rms_mm, 6)},
+                 {"realtime_factor", Significant(sim::Median(factors), 6)},
+                 {"frames", f.frames}};
+    AddPhaseJson(f, &mode);
+    modes.push_back(std::move(mode));
   }
-  json += "  ]\n}\n";
+  const Json json = {{"window_frames", result.window_frames},
+                     {"window_cycles", Decimals(result.window_cycles, 4)},
+                     {"modes", modes}};
   std::ofstream out(path);
-  out << json;
+  out << JsonText(json);
   if (!out) throw Error("cannot write the JSON", path, "check the directory exists and is writable");
 }
 

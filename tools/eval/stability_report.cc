@@ -8,6 +8,7 @@
 #include <set>
 #include <tuple>
 
+#include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -347,30 +348,34 @@ std::string WriteStabilityReport(const StabilityResult& result, const std::strin
 }
 
 void WriteStabilityJson(const StabilityResult& result, const std::string& path) {
-  std::string json = "{\n  \"cells\": [\n";
-  for (size_t k = 0; k < result.cells.size(); ++k) {
-    const CellResult& c = result.cells[k];
-    json += Printed("    {\"cell\": %s, \"motion\": %s, \"guard\": %s, \"youngs_modulus_pa\": %.10g, "
-                    "\"poissons_ratio\": %.10g, \"dt_ms\": %.10g, \"outcome\": %s, \"detector\": %s, "
-                    "\"dt_critical_ms\": %.10g, \"dt_element_bound_ms\": %.10g, \"substeps\": %d, "
-                    "\"internal_steps\": %lld, \"wall_s\": %.6g}%s\n",
-                    JsonQuoted(c.spec.Name()).c_str(), JsonQuoted(c.spec.motion).c_str(),
-                    JsonQuoted(GuardName(c.spec.guard)).c_str(), c.spec.youngs_modulus_pa, c.spec.poissons_ratio,
-                    c.spec.dt_s * 1e3, JsonQuoted(OutcomeName(c.outcome)).c_str(), JsonQuoted(c.detector).c_str(),
-                    c.dt_critical_s * 1e3, c.dt_element_bound_s * 1e3, c.substeps, c.internal_steps, c.wall_s,
-                    k + 1 < result.cells.size() ? "," : "");
+  using Json = nlohmann::ordered_json;
+  Json cells = Json::array();
+  for (const CellResult& c : result.cells) {
+    cells.push_back({{"cell", c.spec.Name()},
+                     {"motion", c.spec.motion},
+                     {"guard", GuardName(c.spec.guard)},
+                     {"youngs_modulus_pa", Significant(c.spec.youngs_modulus_pa, 10)},
+                     {"poissons_ratio", Significant(c.spec.poissons_ratio, 10)},
+                     {"dt_ms", Significant(c.spec.dt_s * 1e3, 10)},
+                     {"outcome", OutcomeName(c.outcome)},
+                     {"detector", c.detector},
+                     {"dt_critical_ms", Significant(c.dt_critical_s * 1e3, 10)},
+                     {"dt_element_bound_ms", Significant(c.dt_element_bound_s * 1e3, 10)},
+                     {"substeps", c.substeps},
+                     {"internal_steps", c.internal_steps},
+                     {"wall_s", Significant(c.wall_s, 6)}});
   }
-  json += "  ],\n  \"bisections\": [\n";
-  for (size_t k = 0; k < result.bisections.size(); ++k) {
-    const BisectionResult& b = result.bisections[k];
-    json += Printed("    {\"case\": %s, \"dt_critical_ms\": %.10g, \"dt_element_bound_ms\": %.10g, "
-                    "\"limit_ms\": %.10g, \"limit_over_dt_critical\": %.6f, \"limit_over_element_bound\": %.6f}%s\n",
-                    JsonQuoted(b.bisection_case.Name()).c_str(), b.dt_critical_s * 1e3, b.dt_element_bound_s * 1e3,
-                    b.limit_s() * 1e3, b.ratio_to_estimate(), b.ratio_to_element_bound(),
-                    k + 1 < result.bisections.size() ? "," : "");
+  Json bisections = Json::array();
+  for (const BisectionResult& b : result.bisections) {
+    bisections.push_back({{"case", b.bisection_case.Name()},
+                          {"dt_critical_ms", Significant(b.dt_critical_s * 1e3, 10)},
+                          {"dt_element_bound_ms", Significant(b.dt_element_bound_s * 1e3, 10)},
+                          {"limit_ms", Significant(b.limit_s() * 1e3, 10)},
+                          {"limit_over_dt_critical", Decimals(b.ratio_to_estimate(), 6)},
+                          {"limit_over_element_bound", Decimals(b.ratio_to_element_bound(), 6)}});
   }
-  json += "  ]\n}\n";
-  WriteText(path, json);
+  const Json json = {{"cells", cells}, {"bisections", bisections}};
+  WriteText(path, JsonText(json));
 }
 
 }  // namespace dg::tools

@@ -4,11 +4,14 @@
 #include <filesystem>
 #include <sstream>
 
+#include <nlohmann/json.hpp>
+
 #include "io/ct/displacement_field.h"
 #include "io/h5_file.h"
 #include "sim/error.h"
 #include "stages/register/fiducial_motion.h"
 #include "tools/bench/bench_json.h"
+#include "tools/json_text.h"
 #include "tools/run/default_scene.h"
 
 namespace dg::tools::preop {
@@ -74,17 +77,21 @@ PreopBenchRecord RunPreopBench(const std::string& out_dir, int threads, bool pro
 }
 
 void WritePreopBenchJson(const std::string& path, const PreopBenchRecord& r) {
-  std::string steps;
-  for (const StepTime& step : r.summary.steps) {
-    steps += Printed("%s\"%s\": %.3f", steps.empty() ? "" : ", ", step.step.c_str(), step.wall_s);
-  }
-  WriteBenchJson(path, {Printed("\"bench\": \"preop\", \"input\": \"default phantom, DICOM, %d phases\", "
-                                "\"threads\": %d, \"wall_s\": %.2f, \"steps_s\": {%s}, \"tets\": %d, "
-                                "\"min_radius_ratio\": %.3f, \"node_error_mean_mm\": %.4f, \"node_error_max_mm\": %.4f, "
-                                "\"fiducial_deformed_mean_mm\": %.4f, \"fiducial_found_mean_mm\": %.4f",
-                                r.summary.phases, r.threads, r.summary.wall_s, steps.c_str(), r.summary.mesh.tets,
-                                r.summary.mesh.min_radius_ratio, r.errors.node_error_mean_mm, r.errors.node_error_max_mm,
-                                r.errors.fiducial_deformed_mean_mm, r.errors.fiducial_found_mean_mm)});
+  nlohmann::ordered_json steps = nlohmann::ordered_json::object();
+  for (const StepTime& step : r.summary.steps) steps[step.step] = Decimals(step.wall_s, 3);
+  const nlohmann::ordered_json record = {
+      {"bench", "preop"},
+      {"input", "default phantom, DICOM, " + std::to_string(r.summary.phases) + " phases"},
+      {"threads", r.threads},
+      {"wall_s", Decimals(r.summary.wall_s, 2)},
+      {"steps_s", steps},
+      {"tets", r.summary.mesh.tets},
+      {"min_radius_ratio", Decimals(r.summary.mesh.min_radius_ratio, 3)},
+      {"node_error_mean_mm", Decimals(r.errors.node_error_mean_mm, 4)},
+      {"node_error_max_mm", Decimals(r.errors.node_error_max_mm, 4)},
+      {"fiducial_deformed_mean_mm", Decimals(r.errors.fiducial_deformed_mean_mm, 4)},
+      {"fiducial_found_mean_mm", Decimals(r.errors.fiducial_found_mean_mm, 4)}};
+  WriteBenchJson(path, {JsonText(record, -1)});
 }
 
 std::string PreopBenchTable(const PreopBenchRecord& r) {

@@ -23,7 +23,7 @@ class PreopReportFile {
   void Write(const PreopSummary& summary, bool complete, const std::string& error);
 
   std::string path_;
-  std::string inputs_json_;
+  std::string inputs_json_;  // the "inputs" object's JSON text
 };
 
 }  // namespace dg::tools::preop

@@ -8,6 +8,7 @@
 
 #include <Eigen/Geometry>
 #include <fmt/format.h>
+#include <nlohmann/json.hpp>
 
 #include "io/calibration.h"
 #include "io/elapsed_time.h"
@@ -23,15 +24,18 @@
 namespace dg::tools {
 namespace {
 
-std::string StatsJson(const char* eye, const io::ReprojectionStats& s) {
-  char text[512];
-  std::snprintf(text, sizeof text,
-                "\"residual_px_%s\": %.6g, \"residual_mm_%s\": %.6g, \"residual_max_px_%s\": %.6g, "
-                "\"residual_rms_px_%s\": %.6g, \"residual_max_mm_%s\": %.6g, \"residual_rms_mm_%s\": %.6g, "
-                "\"observations_%s\": %d, \"outliers_%s\": %d",
-                eye, s.mean_px, eye, s.mean_mm, eye, s.max_px, eye, s.rms_px, eye, s.max_mm, eye, s.rms_mm, eye,
-                s.observations, eye, s.outliers);
-  return text;
+using Json = nlohmann::ordered_json;
+
+// One eye's reprojection figures, each key ending in _left or _right.
+void AddStats(const std::string& eye, const io::ReprojectionStats& s, Json* json) {
+  (*json)["residual_px_" + eye] = Significant(s.mean_px, 6);
+  (*json)["residual_mm_" + eye] = Significant(s.mean_mm, 6);
+  (*json)["residual_max_px_" + eye] = Significant(s.max_px, 6);
+  (*json)["residual_rms_px_" + eye] = Significant(s.rms_px, 6);
+  (*json)["residual_max_mm_" + eye] = Significant(s.max_mm, 6);
+  (*json)["residual_rms_mm_" + eye] = Significant(s.rms_mm, 6);
+  (*json)["observations_" + eye] = s.observations;
+  (*json)["outliers_" + eye] = s.outliers;
 }
 
 }  // namespace
@@ -200,38 +204,35 @@ std::string RegisterReport(const RegisterRunSummary& summary) {
 
 void WriteRegisterJson(const std::string& path, const RegisterRunSummary& summary) {
   const io::Registration& r = summary.result.registration;
-  std::string json = "{\n  \"T_C_S\": [";
-  for (int k = 0; k < 16; ++k) {
-    char value[32];
-    std::snprintf(value, sizeof value, "%s%.17g", k ? ", " : "", r.T_C_S(k / 4, k % 4));
-    json += value;
-  }
-  char line[512];
-  std::snprintf(line, sizeof line,
-                "],\n  \"phase_shift_s\": %.17g, \"period_s\": %.17g, \"cycles\": %.6g, \"frames\": %d, \"fiducials\": %d,\n",
-                r.phase_shift_s, r.period_s, r.cycles, summary.frames, summary.fiducials);
-  json += line;
-  json += "  " + StatsJson("left", r.left) + ",\n  " + StatsJson("right", r.right) + ",\n";
-  std::snprintf(line, sizeof line,
-                "  \"rotation_sigma_deg\": %.6g, \"translation_sigma_mm\": %.6g, \"phase_shift_sigma_ms\": %.6g,\n"
-                "  \"track_ms\": %.4g, \"solve_ms\": %.4g, \"fiducials_from\": %s,\n"
-                "  \"markers_fit_px\": %.6g, \"markers_reassigned\": %s, \"runner_up_cost_ratio\": %s",
-                r.rotation_sigma_deg(), r.translation_sigma_mm(), r.phase_shift_sigma_ms(), summary.track_ms,
-                summary.solve_ms, JsonQuoted(summary.fiducials_from).c_str(), summary.result.assignment.rms_px,
-                summary.result.assignment.verdict == stages::FiducialAssignment::Verdict::kReassigned ? "true" : "false",
-                std::isfinite(summary.result.runner_up_cost_ratio)
-                    ? fmt::format("{:.6g}", summary.result.runner_up_cost_ratio).c_str()
-                    : "null");
-  json += line;
+  Json json;
+  Json matrix = Json::array();  // row-major, every digit
+  for (int k = 0; k < 16; ++k) matrix.push_back(r.T_C_S(k / 4, k % 4));
+  json["T_C_S"] = matrix;
+  json["phase_shift_s"] = r.phase_shift_s;
+  json["period_s"] = r.period_s;
+  json["cycles"] = Significant(r.cycles, 6);
+  json["frames"] = summary.frames;
+  json["fiducials"] = summary.fiducials;
+  AddStats("left", r.left, &json);
+  AddStats("right", r.right, &json);
+  json["rotation_sigma_deg"] = Significant(r.rotation_sigma_deg(), 6);
+  json["translation_sigma_mm"] = Significant(r.translation_sigma_mm(), 6);
+  json["phase_shift_sigma_ms"] = Significant(r.phase_shift_sigma_ms(), 6);
+  json["track_ms"] = Significant(summary.track_ms, 4);
+  json["solve_ms"] = Significant(summary.solve_ms, 4);
+  json["fiducials_from"] = summary.fiducials_from;
+  json["markers_fit_px"] = Significant(summary.result.assignment.rms_px, 6);
+  json["markers_reassigned"] = summary.result.assignment.verdict == stages::FiducialAssignment::Verdict::kReassigned;
+  json["runner_up_cost_ratio"] = Significant(summary.result.runner_up_cost_ratio, 6);  // infinite (null): no distinct runner-up
   if (summary.error) {
-    std::snprintf(line, sizeof line,
-                  ",\n  \"error_rotation_deg\": %.6g, \"error_translation_mm\": %.6g, \"error_phase_shift_ms\": %.6g",
-                  summary.error->rotation_deg, summary.error->translation_mm, summary.error->phase_shift_ms);
-    json += line;
+    json["error_rotation_deg"] = Significant(summary.error->rotation_deg, 6);
+    json["error_translation_mm"] = Significant(summary.error->translation_mm, 6);
+    json["error_phase_shift_ms"] = Significant(summary.error->phase_shift_ms, 6);
   }
-  json += "\n}\n";
   std::ofstream out(path);
-  if (!(out << json)) throw Error("cannot write the registration JSON", path, "check the directory exists and is writable");
+  if (!(out << JsonText(json))) {
+    throw Error("cannot write the registration JSON", path, "check the directory exists and is writable");
+  }
 }
 
 }  // namespace dg::tools

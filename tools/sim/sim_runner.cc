@@ -8,7 +8,8 @@
 #include <fstream>
 #include <memory>
 #include <optional>
-#include <sstream>
+
+#include <nlohmann/json.hpp>
 
 #include "io/output_folder.h"
 #include "io/vtu_writer.h"
@@ -35,24 +36,29 @@ io::MeshFields OutputFields(const sim::TetMesh& mesh, const sim::Material& mater
 // Written under a temporary name and renamed, so that summary.json is either
 // absent or whole: a full disk leaves no empty or cut file.
 void WriteSummaryJson(const std::string& path, const SimSummary& s, const std::string& status) {
-  std::ostringstream out;
-  out << "{\n  \"status\": " << JsonQuoted(status) << ",\n  \"nodes\": " << s.nodes << ",\n  \"tets\": " << s.tets
-      << ",\n  \"precision\": " << JsonQuoted(s.precision) << ",\n  \"steps\": " << s.steps
-      << ",\n  \"substeps_per_step\": " << s.substeps_per_step << ",\n  \"dt_s\": " << s.dt_s
-      << ",\n  \"simulated_s\": " << s.simulated_s << ",\n  \"wall_s\": " << s.wall_s
-      << ",\n  \"tet_steps_per_s\": " << s.tet_steps_per_s << ",\n  \"realtime_factor\": " << s.realtime_factor
-      << ",\n  \"dt_critical_s\": " << s.stability.dt_critical_s
-      << ",\n  \"dt_element_bound_s\": " << s.stability.dt_element_bound_s
-      << ",\n  \"max_displacement_m\": " << s.max_displacement_m << ",\n  \"threads\": " << s.threads << ",\n  \"reactions_n\": {";
-  for (size_t k = 0; k < s.reactions_n.size(); ++k) {
-    const Eigen::Vector3d& r = s.reactions_n[k].second;
-    out << (k ? ", " : "") << JsonQuoted(s.reactions_n[k].first) << ": [" << r.x() << ", " << r.y() << ", " << r.z()
-        << "]";
-  }
-  out << "}\n}\n";
+  using Json = nlohmann::ordered_json;
+  const auto figure = [](double value) { return Significant(value, 6); };
+  Json reactions = Json::object();
+  for (const auto& [boundary, r] : s.reactions_n) reactions[boundary] = {figure(r.x()), figure(r.y()), figure(r.z())};
+  const Json json = {{"status", status},
+                     {"nodes", s.nodes},
+                     {"tets", s.tets},
+                     {"precision", s.precision},
+                     {"steps", s.steps},
+                     {"substeps_per_step", s.substeps_per_step},
+                     {"dt_s", figure(s.dt_s)},
+                     {"simulated_s", figure(s.simulated_s)},
+                     {"wall_s", figure(s.wall_s)},
+                     {"tet_steps_per_s", figure(s.tet_steps_per_s)},
+                     {"realtime_factor", figure(s.realtime_factor)},
+                     {"dt_critical_s", figure(s.stability.dt_critical_s)},
+                     {"dt_element_bound_s", figure(s.stability.dt_element_bound_s)},
+                     {"max_displacement_m", figure(s.max_displacement_m)},
+                     {"threads", s.threads},
+                     {"reactions_n", reactions}};
   const std::string temporary = path + ".tmp";
   std::ofstream file(temporary);
-  file << out.str();
+  file << JsonText(json);
   file.close();
   std::error_code error;
   if (file) std::filesystem::rename(temporary, path, error);
