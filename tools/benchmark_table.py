@@ -22,6 +22,7 @@ import sys
 BEGIN = "<!-- figures:begin -->"
 END = "<!-- figures:end -->"
 NONE = "not recorded"
+PROVENANCE = ("commit", "date", "load_average_before", "load_average_after")
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 BENCHMARKS = os.path.normpath(os.path.join(HERE, "..", "docs", "benchmarks"))
@@ -42,7 +43,9 @@ def records(name):
     if data is None:
         return []
     if isinstance(data, dict):
-        return data.get("points", [])
+        # runtime.json: the provenance once, beside the points
+        shared = {k: data[k] for k in PROVENANCE if k in data}
+        return [{**shared, **p} for p in data.get("points", [])]
     return data
 
 

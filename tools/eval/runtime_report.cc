@@ -4,11 +4,14 @@
 #include <filesystem>
 #include <fstream>
 
+#include <nlohmann/json.hpp>
+
 #include "sim/error.h"
 #include "sim/tled_solver.h"
 #include "tools/bench/bench_json.h"
 #include "tools/eval/runtime_plot.h"
 #include "tools/json_text.h"
+#include "tools/provenance.h"
 
 namespace dg::tools {
 namespace {
@@ -186,28 +189,42 @@ std::string WriteRuntimeReport(const RuntimeResult& result, const std::string& o
 }
 
 void WriteRuntimeJson(const RuntimeResult& result, const std::string& path) {
-  std::string json = "{\n  \"scene\": " + JsonQuoted(result.scene_name) +
-                     ", \"window_frames\": " + std::to_string(result.window_frames) +
-                     ",\n  \"recommendation\": " + JsonQuoted(RecommendationText(result)) + ",\n  \"points\": [\n";
+  using Json = nlohmann::ordered_json;
+  const RunProvenance run = ReadRunProvenance();
+  Json points = Json::array();
   for (size_t k = 0; k < result.points.size(); ++k) {
     const PointResult& p = result.points[k];
     const ErrorFigures& e = p.errors;
-    json += Printed(
-        "    {\"name\": %s, \"tets\": %d, \"dt_ms\": %.6g, \"threads\": %d, \"precision\": %s, "
-        "\"target_features\": %d, \"status\": %s, \"surface_avg_mm\": %.6g, \"surface_max_mm\": %.6g, "
-        "\"surface_rms_mm\": %.6g, \"internal_avg_mm\": %.6g, \"internal_max_mm\": %.6g, "
-        "\"internal_rms_mm\": %.6g, \"realtime_factor\": %.6g, \"simulating_realtime_factor\": %.6g, "
-        "\"pareto\": %s, \"recommended\": %s}%s\n",
-        JsonQuoted(p.plan.point.Name()).c_str(), p.plan.tets, p.plan.point.dt_s * 1e3, p.plan.point.threads,
-        JsonQuoted(sim::ToString(p.plan.point.precision)).c_str(), p.plan.point.target_features,
-        JsonQuoted(Status(p)).c_str(), e.surface_avg_mm,
-        e.surface_max_mm, e.surface_rms_mm, e.internal_avg_mm, e.internal_max_mm, e.internal_rms_mm, p.realtime_factor,
-        p.simulating_realtime_factor, p.pareto ? "true" : "false", result.recommended == k ? "true" : "false",
-        k + 1 < result.points.size() ? "," : "");
+    points.push_back({{"name", p.plan.point.Name()},
+                      {"tets", p.plan.tets},
+                      {"dt_ms", Significant(p.plan.point.dt_s * 1e3, 6)},
+                      {"threads", p.plan.point.threads},
+                      {"precision", sim::ToString(p.plan.point.precision)},
+                      {"target_features", p.plan.point.target_features},
+                      {"status", Status(p)},
+                      {"surface_avg_mm", Significant(e.surface_avg_mm, 6)},
+                      {"surface_max_mm", Significant(e.surface_max_mm, 6)},
+                      {"surface_rms_mm", Significant(e.surface_rms_mm, 6)},
+                      {"internal_avg_mm", Significant(e.internal_avg_mm, 6)},
+                      {"internal_max_mm", Significant(e.internal_max_mm, 6)},
+                      {"internal_rms_mm", Significant(e.internal_rms_mm, 6)},
+                      {"realtime_factor", Significant(p.realtime_factor, 6)},
+                      {"simulating_realtime_factor", Significant(p.simulating_realtime_factor, 6)},
+                      {"pareto", p.pareto},
+                      {"recommended", result.recommended == k}});
   }
-  json += "  ]\n}\n";
+  // The build that wrote the file, when, and the machine's load at the
+  // process's start and now (docs/benchmarks.md).
+  const Json json = {{"scene", result.scene_name},
+                     {"window_frames", result.window_frames},
+                     {"commit", run.commit},
+                     {"date", run.date},
+                     {"load_average_before", LoadAverageJson<Json>(run.load_at_start)},
+                     {"load_average_after", LoadAverageJson<Json>(run.load_now)},
+                     {"recommendation", RecommendationText(result)},
+                     {"points", points}};
   std::ofstream out(path);
-  out << json;
+  out << JsonText(json);
   if (!out) throw Error("cannot write the JSON", path, "check the directory exists and is writable");
 }
 
