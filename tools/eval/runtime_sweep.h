@@ -12,15 +12,12 @@ namespace dg::tools {
 
 // `dynaguide eval runtime`: error against run time. A sweep over
 // what trades accuracy for speed on a phantom with ground truth: the mesh's
-// resolution, the time step, the tracker's target feature count and the
-// threads. Each point is an independent `dynaguide run` of the whole graph
-// (registered from the video, combined mode, the scene's overlays, offline
-// policy, no video file) writing its own log under DIR/runs/<point>/run.h5
-// beside point.yaml (what the point is); every figure of the report is read
-// back from those files.
-//
-// Fixed in every point, because the graph offers no other choice yet: the FEM
-// kernel in float (stages::FemStage runs CoupledSimulation<float>).
+// resolution, the time step, the tracker's target feature count, the
+// threads and the simulation's precision. Each point is an independent
+// `dynaguide run` of the whole graph (registered from the video, combined
+// mode, the scene's overlays, offline policy, no video file) writing its own
+// log under DIR/runs/<point>/run.h5 beside point.yaml (what the point is);
+// every figure of the report is read back from those files.
 
 // One configuration.
 struct SweepPoint {
