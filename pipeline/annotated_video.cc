@@ -1,6 +1,5 @@
 #include "pipeline/annotated_video.h"
 
-#include <chrono>
 #include <cstdio>
 
 #include <opencv2/imgproc.hpp>
@@ -60,18 +59,17 @@ void ArrangePicture(const FramePacket& packet, VideoLayout layout, cv::Mat* pict
 }
 
 AnnotatedVideo::AnnotatedVideo(const std::string& path, double fps, cv::Size eye_size, VideoLayout layout,
-                               Policy policy, int ring_frames)
+                               Policy policy, int queue_frames)
     : path_(path),
       layout_(layout),
       policy_(policy),
       writer_(path, cv::CAP_OPENCV_MJPEG, cv::VideoWriter::fourcc('M', 'J', 'P', 'G'), fps,
               LayoutSize(eye_size, layout)),
-      ring_(ring_frames) {
+      queue_(queue_frames) {
   if (!writer_.isOpened()) {
     throw Error("cannot open the annotated video for writing", path, "check the directory exists and is writable");
   }
   writer_.set(cv::VIDEOWRITER_PROP_QUALITY, 90);
-  encoder_ = std::thread([this] { Encode(); });
 }
 
 AnnotatedVideo::~AnnotatedVideo() {
@@ -82,46 +80,37 @@ AnnotatedVideo::~AnnotatedVideo() {
   }
 }
 
+void AnnotatedVideo::Start() {
+  DG_CHECK(!encoder_.joinable() && !closed_);
+  encoder_ = std::thread([this] { Encode(); });
+}
+
 void AnnotatedVideo::Add(const FramePacket& packet) {
+  if (closed_) {
+    throw Error("the annotated video was closed while frames were still coming", path_,
+                "close it after the graph has finished");
+  }
+  if (!encoder_.joinable()) Start();
   ArrangePicture(packet, layout_, &canvas_);
   DrawTracks(packet, layout_, canvas_);
-  if (policy_ == Policy::kRealtime) {
-    ring_.PushOrDrop(canvas_);
-  } else {
-    while (!ring_.TryPush(canvas_)) {
-      if (closing_.load()) throw Error("the annotated video was closed while frames were still coming", path_,
-                                       "close it after the graph has finished");
-      wake_.notify_one();
-      std::this_thread::sleep_for(std::chrono::microseconds(200));
-    }
-  }
-  wake_.notify_one();
+  // Realtime never waits for the encoder; offline waits for room, so every frame is written.
+  const bool queued = policy_ == Policy::kRealtime ? queue_.TryPush(canvas_) : queue_.Push(canvas_);
+  if (!queued) ++dropped_;
 }
 
 void AnnotatedVideo::Encode() {
   cv::Mat frame;
-  for (;;) {
-    while (ring_.TryPop(frame)) {
-      writer_.write(frame);
-      ++written_;
-    }
-    if (closing_.load()) {
-      while (ring_.TryPop(frame)) {  // what arrived between the last pop and the close
-        writer_.write(frame);
-        ++written_;
-      }
-      return;
-    }
-    std::unique_lock lock(wake_mutex_);
-    wake_.wait_for(lock, std::chrono::milliseconds(5));
+  while (queue_.Pop(frame)) {  // false once closed and drained
+    writer_.write(frame);
+    ++written_;
   }
 }
 
 void AnnotatedVideo::Close() {
-  if (!encoder_.joinable()) return;
-  closing_ = true;
-  wake_.notify_one();
-  encoder_.join();
+  if (closed_) return;
+  closed_ = true;
+  queue_.Close();
+  if (encoder_.joinable()) encoder_.join();
   writer_.release();
   if (dropped() > 0) {
     Logger("pipeline").warn("{}: {} frames dropped because the encoder fell behind", path_, dropped());

@@ -1,8 +1,6 @@
 #pragma once
 
 #include <atomic>
-#include <condition_variable>
-#include <mutex>
 #include <string>
 #include <thread>
 
@@ -10,7 +8,7 @@
 #include <opencv2/videoio.hpp>
 
 #include "pipeline/frame_packet.h"
-#include "pipeline/spsc_ring.h"
+#include "pipeline/bounded_queue.h"
 #include "pipeline/stage_graph.h"
 
 namespace dg::pipeline {
@@ -31,28 +29,36 @@ void ArrangePicture(const FramePacket& packet, VideoLayout layout, cv::Mat* pict
 // The video a person watches after a run: the packet's picture in the run's
 // layout, with the tracked features drawn in each eye shown (corners green,
 // MSER regions orange) and the frame's number, time and track count. Drawing
-// happens in the caller (the graph's sink); encoding on a thread of its own,
-// fed through a bounded single-producer/single-consumer ring, so a slow
-// encoder never holds the graph: under the realtime policy a frame that finds
-// the ring full is dropped and counted; offline the sink waits, so the video
-// is complete.
+// happens in the caller (the graph's sink); encoding on a thread of its own
+// (docs/design.md#threads), fed through a bounded blocking queue, so a slow
+// encoder never holds the graph in real time: under the realtime policy a
+// frame that finds the queue full is dropped and counted; offline the sink
+// waits on the queue's condition variable, so the video is complete.
 // MJPEG in AVI: every player and OpenCV opens it.
+//
+// Lifetime: the constructor opens the file; Start() starts the encoder's
+// thread (Add() starts it if Start() was not called); Close() drains the
+// queue, joins the thread and closes the file. Add() and Close() come from
+// one thread (the sink).
 class AnnotatedVideo {
  public:
   // @throws dg::Error when the file cannot be opened for writing.
   // eye_size: one camera's frame size (the video is LayoutSize(eye_size, layout)).
   AnnotatedVideo(const std::string& path, double fps, cv::Size eye_size, VideoLayout layout, Policy policy,
-                 int ring_frames = 8);
+                 int queue_frames = 8);
   ~AnnotatedVideo();  // Close()s, logging instead of throwing
   AnnotatedVideo(const AnnotatedVideo&) = delete;
   AnnotatedVideo& operator=(const AnnotatedVideo&) = delete;
 
+  // Starts the encoder's thread. @pre neither started nor closed.
+  void Start();
   // Draws the packet's frame and hands it to the encoder.
+  // @throws dg::Error after Close().
   void Add(const FramePacket& packet);
-  // Encodes what is queued and closes the file. @throws dg::Error when encoding failed.
+  // Encodes what is queued and closes the file. Idempotent.
   void Close();
 
-  std::size_t dropped() const { return ring_.dropped(); }
+  std::size_t dropped() const { return dropped_.load(); }
   std::int64_t written() const { return written_.load(); }
 
  private:
@@ -62,12 +68,11 @@ class AnnotatedVideo {
   VideoLayout layout_;
   Policy policy_;
   cv::VideoWriter writer_;
-  SpscRing<cv::Mat> ring_;
-  cv::Mat canvas_;  // the producer's frame being drawn; swapped into the ring
-  std::atomic<bool> closing_{false};
+  BoundedQueue<cv::Mat> queue_;
+  cv::Mat canvas_;  // the producer's frame being drawn; swapped into the queue
+  bool closed_ = false;
+  std::atomic<std::size_t> dropped_{0};
   std::atomic<std::int64_t> written_{0};
-  std::mutex wake_mutex_;
-  std::condition_variable wake_;
   std::thread encoder_;
 };
 
