@@ -89,6 +89,10 @@ TEST_CASE("eval protocol: the tiny phantom in three modes, its tables recomputed
     CHECK(figures.internal_avg_mm == Approx(row.internal_avg).epsilon(1e-9));
     CHECK(figures.internal_max_mm == Approx(row.internal_max).epsilon(1e-9));
     CHECK(figures.internal_rms_mm == Approx(row.internal_rms).epsilon(1e-9));
+    CHECK(figures.typical_points == row.typical_points);
+    CHECK(figures.typical_avg_mm == Approx(row.typical_avg).epsilon(1e-9));
+    CHECK(figures.typical_max_mm == Approx(row.typical_max).epsilon(1e-9));
+    CHECK(figures.typical_rms_mm == Approx(row.typical_rms).epsilon(1e-9));
     // The CSV holds the same figures (6 decimals).
     const std::vector<double> csv = CsvRow(options.out_dir + "/table1.csv", mode);
     REQUIRE(csv.size() >= 6);

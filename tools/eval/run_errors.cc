@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include <yaml-cpp/yaml.h>
 
@@ -33,6 +34,30 @@ void ReadPhaseErrors(const io::H5Reader& file, RunErrors* run) {
     run->registered_phase_error_ms.push_back(std::abs(stages::PhaseDifference(registered[r], truth[r])) * 1e3 *
                                              run->period_s);
   }
+}
+
+// The errors over the first `rows` frames of the run's typical surface point
+// (ErrorFigures::typical_*), and how many points were seen throughout.
+std::vector<double> TypicalFeatureCourse(const RunErrors& run, size_t rows, int* candidates) {
+  const int points = run.truth_surface_points;
+  std::vector<std::pair<double, int>> rms_of_point;  // (RMS over the rows, point)
+  for (int p = 0; p < points && !run.surface_mm.empty(); ++p) {
+    double squares = 0;
+    bool seen_throughout = rows > 0;
+    for (size_t r = 0; r < rows && seen_throughout; ++r) {
+      const double e = run.surface_mm[r * points + p];
+      seen_throughout = !std::isnan(e);
+      squares += e * e;
+    }
+    if (seen_throughout) rms_of_point.emplace_back(std::sqrt(squares / rows), p);
+  }
+  *candidates = static_cast<int>(rms_of_point.size());
+  if (rms_of_point.empty()) return {};
+  const auto median = rms_of_point.begin() + rms_of_point.size() / 2;
+  std::nth_element(rms_of_point.begin(), median, rms_of_point.end());
+  std::vector<double> course(rows);
+  for (size_t r = 0; r < rows; ++r) course[r] = run.surface_mm[r * points + median->second];
+  return course;
 }
 
 }  // namespace
@@ -67,6 +92,7 @@ RunErrors ReadRunErrors(const std::string& run_h5) {
   run.surface_mean_mm = Column<double>(file, "surface_mean_mm");
   run.surface_rms_mm = Column<double>(file, "surface_rms_mm");
   run.surface_max_mm = Column<double>(file, "surface_max_mm");
+  if (file.Has("/errors/surface_mm")) run.surface_mm = Column<double>(file, "surface_mm", &run.truth_surface_points);
   run.internal_mm = Column<double>(file, "internal_mm", &run.internal_points);
   run.fiducial_sim_mm = Column<double>(file, "fiducial_sim_mm", &run.fiducials);
   run.fiducial_model_mm = Column<double>(file, "fiducial_model_mm");
@@ -75,13 +101,16 @@ RunErrors ReadRunErrors(const std::string& run_h5) {
                                 run.surface_mean_mm.size(), run.surface_rms_mm.size(), run.surface_max_mm.size(),
                                 run.internal_mm.size() / std::max(1, run.internal_points),
                                 run.fiducial_sim_mm.size() / std::max(1, run.fiducials),
-                                run.fiducial_model_mm.size() / std::max(1, run.fiducials)});
+                                run.fiducial_model_mm.size() / std::max(1, run.fiducials),
+                                run.surface_mm.empty() ? run.frame.size()
+                                                       : run.surface_mm.size() / std::max(1, run.truth_surface_points)});
   run.frame.resize(rows);
   run.t_s.resize(rows);
   run.surface_points.resize(rows);
   run.surface_mean_mm.resize(rows);
   run.surface_rms_mm.resize(rows);
   run.surface_max_mm.resize(rows);
+  if (!run.surface_mm.empty()) run.surface_mm.resize(rows * run.truth_surface_points);
   run.internal_mm.resize(rows * run.internal_points);
   run.fiducial_sim_mm.resize(rows * run.fiducials);
   run.fiducial_model_mm.resize(rows * run.fiducials);
@@ -95,6 +124,7 @@ ErrorFigures Figures(const std::vector<const RunErrors*>& runs, int frames) {
   double internal_count = 0, internal_sum = 0, internal_sq = 0;
   std::vector<double> fiducial_sim, fiducial_model;
   double fiducial_rows = 0;
+  std::vector<double> typical_course;
   for (const RunErrors* run : runs) {
     if (run == runs.front()) {
       fiducial_sim.assign(run->fiducials, 0.0);
@@ -104,6 +134,10 @@ ErrorFigures Figures(const std::vector<const RunErrors*>& runs, int frames) {
       throw Error("runs with different fiducial counts cannot be pooled", run->path, "evaluate one phantom design");
     }
     const size_t rows = frames < 0 ? run->frame.size() : std::min(run->frame.size(), static_cast<size_t>(frames));
+    int candidates = 0;
+    const std::vector<double> course = TypicalFeatureCourse(*run, rows, &candidates);
+    typical_course.insert(typical_course.end(), course.begin(), course.end());
+    figures.typical_points += candidates;
     for (size_t r = 0; r < rows; ++r) {
       ++figures.frames;
       const double n = run->surface_points[r];
@@ -145,6 +179,15 @@ ErrorFigures Figures(const std::vector<const RunErrors*>& runs, int frames) {
     figures.internal_avg_mm = internal_sum / internal_count;
     figures.internal_rms_mm = std::sqrt(internal_sq / internal_count);
   }
+  if (typical_course.empty()) {
+    figures.typical_avg_mm = figures.typical_max_mm = figures.typical_rms_mm = std::numeric_limits<double>::quiet_NaN();
+  }
+  for (double e : typical_course) {
+    figures.typical_avg_mm += e / typical_course.size();
+    figures.typical_max_mm = std::max(figures.typical_max_mm, e);
+    figures.typical_rms_mm += e * e / typical_course.size();
+  }
+  figures.typical_rms_mm = std::sqrt(figures.typical_rms_mm);
   for (size_t i = 0; i < fiducial_sim.size() && fiducial_rows > 0; ++i) {
     figures.fiducial_sim_avg_mm.push_back(fiducial_sim[i] / fiducial_rows);
     figures.fiducial_model_avg_mm.push_back(fiducial_model[i] / fiducial_rows);

@@ -24,6 +24,8 @@ struct RunErrors {
   std::vector<double> t_s;
   std::vector<std::int32_t> surface_points;
   std::vector<double> surface_mean_mm, surface_rms_mm, surface_max_mm;
+  int truth_surface_points = 0;     // the truth's surface points (seen or not)
+  std::vector<double> surface_mm;   // [frame][truth point], NaN where unseen; empty in a log without it
   int internal_points = 0, fiducials = 0;
   std::vector<double> internal_mm;                          // [frame][point]
   std::vector<double> fiducial_sim_mm, fiducial_model_mm;  // [frame][fiducial]
@@ -44,6 +46,14 @@ struct ErrorFigures {
   double surface_avg_mm = 0, surface_max_mm = 0, surface_rms_mm = 0;
   double internal_avg_mm = 0, internal_max_mm = 0, internal_rms_mm = 0;
   std::vector<double> fiducial_sim_avg_mm, fiducial_model_avg_mm;  // Table 2: per fiducial
+  // The paper's statistic: one typical surface feature followed through the
+  // window. Per run, the point with the median RMS error among the points
+  // seen in every frame of the window (the upper median of an even count);
+  // the runs' courses pooled. typical_points: the points it was chosen from
+  // (0 when no run has per-point errors, or no point was seen throughout:
+  // then the typical figures are NaN).
+  int typical_points = 0;
+  double typical_avg_mm = 0, typical_max_mm = 0, typical_rms_mm = 0;
   // The cardiac phase against the truth over every frame with a live phase
   // (not only the window): the live estimate's and the constant shift's.
   int phase_frames = 0;
