@@ -27,35 +27,38 @@ TEST_CASE("bounded queue: first in, first out, within its capacity", "[pipeline]
   REQUIRE(out == 4);
 }
 
-TEST_CASE("bounded queue: Close() wakes a waiting consumer, and the queued values still drain", "[pipeline][unit]") {
-  BoundedQueue<int> queue(2);
-  bool popped = true;
-  std::thread consumer([&] {
-    int out = 0;
-    popped = queue.Pop(out);  // waits: the queue is empty
-  });
+// Runs `wait` (a Push or Pop that must wait) on a thread of its own, closes
+// the queue and joins: what the wait returned.
+template <typename Wait>
+bool ReturnOfWaitEndedByClose(BoundedQueue<int>& queue, Wait wait) {
+  bool returned = true;
+  std::thread waiting([&] { returned = wait(); });
   queue.Close();
-  consumer.join();
-  REQUIRE_FALSE(popped);
+  waiting.join();
+  return returned;
+}
 
-  BoundedQueue<int> drained(2);
+TEST_CASE("bounded queue: Close() wakes a waiting consumer, and the queued values still drain", "[pipeline][unit]") {
+  BoundedQueue<int> empty(2);
+  REQUIRE_FALSE(ReturnOfWaitEndedByClose(empty, [&] {
+    int out = 0;
+    return empty.Pop(out);  // waits: the queue is empty
+  }));
+
+  BoundedQueue<int> full(2);
   int a = 7, b = 8;
-  REQUIRE(drained.Push(a));
-  REQUIRE(drained.Push(b));
-  bool pushed = true;
-  std::thread producer([&] {
+  REQUIRE(full.Push(a));
+  REQUIRE(full.Push(b));
+  REQUIRE_FALSE(ReturnOfWaitEndedByClose(full, [&] {
     int c = 9;
-    pushed = drained.Push(c);  // waits: the queue is full
-  });
-  drained.Close();
-  producer.join();
-  REQUIRE_FALSE(pushed);
+    return full.Push(c);  // waits: the queue is full
+  }));
   int out = 0;
-  REQUIRE(drained.Pop(out));
+  REQUIRE(full.Pop(out));
   REQUIRE(out == 7);
-  REQUIRE(drained.Pop(out));
+  REQUIRE(full.Pop(out));
   REQUIRE(out == 8);
-  REQUIRE_FALSE(drained.Pop(out));
+  REQUIRE_FALSE(full.Pop(out));
 }
 
 // An offline producer pushing 200 values through 2 slots waits for the
