@@ -192,11 +192,10 @@ Scene::Simulation ReadSimulation(const YamlMap& map) {
   simulation.inverse_interval_steps = map.Integer("inverse_interval_steps", simulation.inverse_interval_steps);
   simulation.precision =
       sim::ParsePrecision(map.String("precision", sim::ToString(simulation.precision)), map.Where("precision"));
-  simulation.time_step_policy = map.String("time_step_policy", simulation.time_step_policy);
-  if (simulation.time_step_policy != "refuse" && simulation.time_step_policy != "substep") {
-    throw Error("unknown time step policy '" + simulation.time_step_policy + "'", map.Where("time_step_policy"),
-                "use refuse (a dt_s above the mesh's stable step is an error) or substep");
-  }
+  // A run never steps unchecked: that policy is for the solver's stability studies.
+  simulation.time_step_policy =
+      sim::ParseTimeStepPolicy(map.String("time_step_policy", sim::ToString(simulation.time_step_policy)),
+                               map.Where("time_step_policy"), {sim::TimeStepPolicy::kRefuse, sim::TimeStepPolicy::kSubstep});
   simulation.sampled_nodes = map.Integer("sampled_nodes", simulation.sampled_nodes);
   simulation.max_tie_distance_m = map.Number("max_tie_distance_m", simulation.max_tie_distance_m);
   simulation.outlier_gate_min_m = map.Number("outlier_gate_min_m", simulation.outlier_gate_min_m);

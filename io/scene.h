@@ -9,6 +9,7 @@
 #include "sim/material.h"
 #include "sim/precision.h"
 #include "sim/simulation_mode.h"
+#include "sim/time_step_policy.h"
 
 namespace dg::io {
 
@@ -102,7 +103,7 @@ struct Scene {
     sim::Precision precision = sim::Precision::kFloat;  // float (as the paper's GPU solver) or double
     // A dt_s above the mesh's stable step: refuse (an error at scene load) or
     // substep (each step split into the fewest equal substeps that are stable).
-    std::string time_step_policy = "refuse";
+    sim::TimeStepPolicy time_step_policy = sim::TimeStepPolicy::kRefuse;
     int sampled_nodes = 256;        // nodes logged per frame in /sim
     double max_tie_distance_m = 3e-3;  // features farther from every free surface node are not tied
     // A feature departing from the scan's prediction by more than the larger of

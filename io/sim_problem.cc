@@ -91,12 +91,8 @@ MeshSource ParseMesh(const YamlMap& map, const std::string& base_directory) {
 }
 
 sim::TimeStepPolicy ParsePolicy(const YamlMap& map) {
-  const std::string policy = map.String("time_step_policy", "refuse");
-  if (policy == "refuse") return sim::TimeStepPolicy::kRefuse;
-  if (policy == "substep") return sim::TimeStepPolicy::kSubstep;
-  if (policy == "unchecked") return sim::TimeStepPolicy::kUnchecked;
-  throw Error("unknown time_step_policy '" + policy + "'", map.Where("time_step_policy"),
-              "use refuse, substep or unchecked");
+  return sim::ParseTimeStepPolicy(map.String("time_step_policy", sim::ToString(sim::TimeStepPolicy::kRefuse)),
+                                  map.Where("time_step_policy"));
 }
 
 }  // namespace

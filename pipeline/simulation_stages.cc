@@ -146,7 +146,7 @@ std::shared_ptr<const SimulationSetup> LoadSimulationSetup(const io::Scene& scen
     char limit[32];
     std::snprintf(limit, sizeof limit, "%.4g ms", safe_dt_s * 1e3);
     const std::string excess = setup->stability.TimeStepExcess(setup->options.dt_s, safety);
-    if (setup->options.time_step_policy != "substep") {
+    if (setup->options.time_step_policy != sim::TimeStepPolicy::kSubstep) {
       throw Error("simulation.dt_s: " + excess, scene.path,
                   "set simulation.dt_s at or below " + std::string(limit) +
                       ", let the run substep (simulation.time_step_policy: substep), or mesh more coarsely or "
@@ -243,7 +243,7 @@ void FemAdapter::Process(FramePacket& packet) {
     options.sampled_nodes = setup_->options.sampled_nodes;
     options.concurrent = setup_->options.concurrent;
     options.inverse_interval_steps = setup_->options.inverse_interval_steps;
-    options.double_precision = setup_->options.precision == sim::Precision::kDouble;
+    options.precision = setup_->options.precision;
     options.launch_helper = helpers_->launcher();
     fem_ = std::make_unique<stages::FemStage>(options, setup_->mesh, setup_->material, setup_->motion,
                                               setup_->predictor, setup_->fixed_nodes, &setup_->stability);

@@ -12,15 +12,9 @@
 #include "sim/step_team.h"
 #include "sim/tled_kernel.h"
 #include "sim/tled_model.h"
+#include "sim/time_step_policy.h"
 
 namespace dg::sim {
-
-// What to do when the requested step exceeds the safety fraction of dt_cr.
-enum class TimeStepPolicy {
-  kRefuse,     // throw dg::Error naming both limits and the largest stable step
-  kSubstep,    // split each step into the fewest equal substeps that are safe
-  kUnchecked,  // run as asked (for stability studies); blow-ups are still detected
-};
 
 struct SolverOptions {
   double dt_s = 2e-4;              // the paper's step

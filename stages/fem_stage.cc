@@ -37,7 +37,7 @@ FemStage::FemStage(const Options& options, const sim::TetMesh& mesh, const sim::
   coupled.concurrent = options_.concurrent;
   coupled.inverse_interval_steps = options_.inverse_interval_steps;
   coupled.solver.launch_helper = options_.launch_helper;
-  if (options_.double_precision) {
+  if (options_.precision == sim::Precision::kDouble) {
     simulation_ = std::make_unique<sim::CoupledSimulation<double>>(
         std::make_shared<const sim::TledModel<double>>(mesh, material), std::move(motion), fixed_nodes, coupled,
         stability);

@@ -9,6 +9,7 @@
 
 #include "sim/coupled_simulation.h"
 #include "sim/motion_model.h"
+#include "sim/precision.h"
 #include "sim/tet_mesh.h"
 #include "stages/constraints/constraint_mapper.h"
 #include "stages/constraints/gap_targets.h"
@@ -65,7 +66,7 @@ class FemStage {
     int sampled_nodes = 256;           // nodes logged per frame (SampledNodeIds)
     bool concurrent = true;            // inverse beside forward (false: one after the other)
     int inverse_interval_steps = sim::kDefaultInverseIntervalSteps;  // steps per level of recovered forces
-    bool double_precision = false;     // the simulation in double instead of float
+    sim::Precision precision = sim::Precision::kFloat;  // the simulation's scalar
     sim::HelperLauncher launch_helper; // where the solver's helper workers run (empty: the caller's TBB arena)
     std::string Validate() const;      // empty when valid
   };

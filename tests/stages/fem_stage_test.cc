@@ -137,7 +137,7 @@ struct RunVariant {
   RunVariant() { mapping.max_tie_distance_m = 6e-3; }  // the tiny mesh's surface nodes are sparse
 };
 
-ModeRun RunMode(sim::SimulationMode mode, const Truth& truth, bool double_precision = false,
+ModeRun RunMode(sim::SimulationMode mode, const Truth& truth, sim::Precision precision = sim::Precision::kFloat,
                 const RunVariant& variant = {}) {
   const sim::TetMesh mesh = io::ReadGmsh(TinyScene() + "/mesh.msh");
   const sim::Material material{3.0e3, 0.45, 1.0e3};
@@ -145,7 +145,7 @@ ModeRun RunMode(sim::SimulationMode mode, const Truth& truth, bool double_precis
   options.mode = mode;
   options.fps = truth.fps;
   options.phase_at_first_frame = truth.phase_at_first_frame;
-  options.double_precision = double_precision;
+  options.precision = precision;
   const auto motion = LoadMotionModel(TinyScene() + "/scan.h5", mesh.num_nodes(), truth.period_s);
   FemStage stage(options, mesh, material, motion, motion, mesh.node_sets.at("base"));
   ConstraintMapper mapper(variant.mapping, mesh.X_m, stage.first_displacement_S_m(), mesh.node_sets.at("surface"),
@@ -236,7 +236,7 @@ TEST_CASE("fem stage: surface, volume and combined modes on the tiny phantom", "
 TEST_CASE("fem stage: float and double precision agree", "[slow]") {
   const Truth truth = ReadTruth();
   const ModeRun single = RunMode(sim::SimulationMode::kCombined, truth);
-  const ModeRun twice = RunMode(sim::SimulationMode::kCombined, truth, true);
+  const ModeRun twice = RunMode(sim::SimulationMode::kCombined, truth, sim::Precision::kDouble);
   REQUIRE(twice.frames == truth.frames);
   const double node_difference_m = (single.last_nodes_S_m - twice.last_nodes_S_m).colwise().norm().maxCoeff();
   std::printf("fem stage, combined mode: float against double, largest node difference %.3g um\n",
@@ -283,9 +283,9 @@ TEST_CASE("fem stage: a wrong track is left out and the nodes near it keep their
   RunVariant open = gated;
   open.mapping.outlier_gate_min_m = 1.0;
   open.mapping.neighbour_radius_m = 1e-6;  // no neighbours: the prediction gate alone, opened wide
-  const ModeRun reference = RunMode(sim::SimulationMode::kCombined, truth, false, clean);
-  const ModeRun with_gates = RunMode(sim::SimulationMode::kCombined, truth, false, gated);
-  const ModeRun without = RunMode(sim::SimulationMode::kCombined, truth, false, open);
+  const ModeRun reference = RunMode(sim::SimulationMode::kCombined, truth, sim::Precision::kFloat, clean);
+  const ModeRun with_gates = RunMode(sim::SimulationMode::kCombined, truth, sim::Precision::kFloat, gated);
+  const ModeRun without = RunMode(sim::SimulationMode::kCombined, truth, sim::Precision::kFloat, open);
   // The nodes within 6 mm of the point at frame 0 (a mesh edge or two).
   const sim::TetMesh mesh = io::ReadGmsh(TinyScene() + "/mesh.msh");
   const Eigen::Vector3d at_S = truth.T_C_S.inverse() * chosen_C;

@@ -189,10 +189,8 @@ void AddBenchCommand(CLI::App& app) {
                   "face fixed, its highest pressed down")
       ->check(CLI::ExistingFile);
   sim->add_flag("--shuffled", options->shuffled_too, "forward: also each mesh with its nodes in a random order");
-  sim->add_option("--precision", options->precisions, "float and/or double")
-      ->delimiter(',')
-      ->check(CLI::IsMember({"float", "double"}))
-      ->capture_default_str();
+  auto precisions = std::make_shared<std::vector<std::string>>(std::vector<std::string>{"float", "double"});
+  sim->add_option("--precision", *precisions, "float and/or double")->delimiter(',')->capture_default_str();
   sim->add_option("--inverse-interval", options->inverse_intervals,
                   "combined, volume: forward steps per level of recovered forces, each measured with its error")
       ->delimiter(',')
@@ -201,7 +199,9 @@ void AddBenchCommand(CLI::App& app) {
   sim->add_option("--repeats", options->repeats, "Timed repeats; the median is reported")->capture_default_str();
   sim->add_option("--seconds", options->simulated_per_repeat_s, "Simulated seconds per repeat")->capture_default_str();
   sim->add_option("--json", *json_path, "Save the records to this JSON file");
-  sim->callback([options, json_path, tets] {
+  sim->callback([options, precisions, json_path, tets] {
+    options->precisions.clear();
+    for (const std::string& name : *precisions) options->precisions.push_back(sim::ParsePrecision(name, "--precision"));
     const bool forward = std::find(options->modes.begin(), options->modes.end(), "forward") != options->modes.end();
     if (tets->count() == 0 && !forward) options->tets = {8000};
     PrintMachine();

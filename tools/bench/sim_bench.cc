@@ -171,7 +171,7 @@ SimBenchRecord MakeRecord(const std::string& name, const sim::TetMesh& mesh, int
   record.mesh_tets = mesh.num_tets();
   record.mesh_nodes = mesh.num_nodes();
   record.threads = threads;
-  record.precision = sizeof(T) == 4 ? "float" : "double";
+  record.precision = sim::PrecisionOf<T>();
   record.mode = mode;
   record.tet_steps_per_s = rates[rates.size() / 2];
   record.tet_steps_per_s_min = rates.front();
@@ -286,7 +286,7 @@ std::vector<SimBenchRecord> RunSimBench(const SimBenchOptions& options, bool pro
     const SimBenchRecord& r = records.back();
     if (!progress) return;
     std::fprintf(stderr, "bench sim: %s, %s, %d tets, %s, %d thread%s: %.1f M tet-steps/s (median of %d)\n",
-                 r.mode.c_str(), r.mesh.c_str(), r.mesh_tets, r.precision.c_str(), r.threads,
+                 r.mode.c_str(), r.mesh.c_str(), r.mesh_tets, sim::ToString(r.precision).c_str(), r.threads,
                  r.threads > 1 ? "s" : "", r.tet_steps_per_s / 1e6, r.repeats);
   };
   for (const std::string& mode : options.modes) {
@@ -295,9 +295,9 @@ std::vector<SimBenchRecord> RunSimBench(const SimBenchOptions& options, bool pro
   for (const std::string& mode : options.modes) {
     if (mode == "forward") {
       for (const BenchProblem& problem : ForwardProblems(options)) {
-        for (const std::string& precision : options.precisions) {
+        for (sim::Precision precision : options.precisions) {
           for (int threads : options.threads) {
-            records.push_back(precision == "float" ? Measure<float>(problem, threads, options)
+            records.push_back(precision == sim::Precision::kFloat ? Measure<float>(problem, threads, options)
                                                    : Measure<double>(problem, threads, options));
             report();
           }
@@ -311,9 +311,9 @@ std::vector<SimBenchRecord> RunSimBench(const SimBenchOptions& options, bool pro
     for (int target : options.tets) {
       const PhantomProblem problem = MakePhantomProblem(target);
       for (int interval : intervals) {
-        for (const std::string& precision : options.precisions) {
+        for (sim::Precision precision : options.precisions) {
           for (int threads : options.threads) {
-            records.push_back(precision == "float"
+            records.push_back(precision == sim::Precision::kFloat
                                   ? MeasureCoupled<float>(problem, mode, interval, threads, options)
                                   : MeasureCoupled<double>(problem, mode, interval, threads, options));
             report();
@@ -341,7 +341,7 @@ void WriteSimBenchJson(const std::string& path, const std::vector<SimBenchRecord
                                            {"mesh_tets", r.mesh_tets},
                                            {"mesh_nodes", r.mesh_nodes},
                                            {"threads", r.threads},
-                                           {"precision", r.precision},
+                                           {"precision", sim::ToString(r.precision)},
                                            {"mode", r.mode},
                                            {"tet_steps_per_s", Significant(r.tet_steps_per_s, 6)},
                                            {"tet_steps_per_s_min", Significant(r.tet_steps_per_s_min, 6)},
@@ -377,7 +377,7 @@ std::string SimBenchTable(const std::vector<SimBenchRecord>& records) {
     if (r.speedup_over_1_thread > 0) std::snprintf(speedup, sizeof speedup, "%.2f", r.speedup_over_1_thread);
     if (r.barrier_ns > 0) std::snprintf(barrier, sizeof barrier, "%.0f", r.barrier_ns);
     table += Printed("| %s | %s | %d | %d | %s | %d | %.1f | %.1f-%.1f | %s | %s | %.2f | %s | %s | %s | %.3f |\n",
-                     r.mode.c_str(), r.mesh.c_str(), r.mesh_tets, r.mesh_nodes, r.precision.c_str(), r.threads,
+                     r.mode.c_str(), r.mesh.c_str(), r.mesh_tets, r.mesh_nodes, sim::ToString(r.precision).c_str(), r.threads,
                      r.tet_steps_per_s / 1e6, r.tet_steps_per_s_min / 1e6, r.tet_steps_per_s_max / 1e6, speedup,
                      barrier, r.realtime_factor, gain, interval, error, r.dt_critical_s * 1e3);
   }

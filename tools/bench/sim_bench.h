@@ -4,6 +4,7 @@
 #include <vector>
 
 #include "sim/coupled_simulation.h"
+#include "sim/precision.h"
 
 namespace dg::tools {
 
@@ -17,7 +18,7 @@ struct SimBenchOptions {
   // own node order: its lowest z face fixed, its highest pressed down.
   std::string mesh_path;
   bool shuffled_too = false;  // forward: also each mesh with its nodes in a random order
-  std::vector<std::string> precisions{"float", "double"};
+  std::vector<sim::Precision> precisions{sim::Precision::kFloat, sim::Precision::kDouble};
   // combined and volume: forward steps per level of recovered forces
   // (sim::CoupledOptions::inverse_interval_steps), each measured.
   std::vector<int> inverse_intervals{sim::kDefaultInverseIntervalSteps};
@@ -32,7 +33,8 @@ struct SimBenchRecord {
   int mesh_tets = 0;
   int mesh_nodes = 0;
   int threads = 0;
-  std::string precision, mode;
+  sim::Precision precision = sim::Precision::kFloat;
+  std::string mode;
   double tet_steps_per_s = 0;      // median over repeats
   double tet_steps_per_s_min = 0, tet_steps_per_s_max = 0;
   double realtime_factor = 0;      // simulated seconds per wall second at dt_s

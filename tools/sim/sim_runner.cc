@@ -43,7 +43,7 @@ void WriteSummaryJson(const std::string& path, const SimSummary& s, const std::s
   const Json json = {{"status", status},
                      {"nodes", s.nodes},
                      {"tets", s.tets},
-                     {"precision", s.precision},
+                     {"precision", sim::ToString(s.precision)},
                      {"steps", s.steps},
                      {"substeps_per_step", s.substeps_per_step},
                      {"dt_s", figure(s.dt_s)},
@@ -91,7 +91,7 @@ SimSummary Run(const io::SimProblem& problem, const sim::TetMesh& mesh, const Si
   SimSummary summary;
   summary.nodes = mesh.num_nodes();
   summary.tets = mesh.num_tets();
-  summary.precision = sim::ToString(sim::PrecisionOf<T>());
+  summary.precision = sim::PrecisionOf<T>();
   summary.threads = options.threads;
   summary.dt_s = problem.solver.dt_s;
   summary.substeps_per_step = solver.substeps_per_step();
@@ -190,7 +190,7 @@ std::string SimSummary::Describe() const {
       "wall: %.3f s stepping, %.1f M tet-steps/s, real-time factor %.2f\n"
       "stability: dt/dt_cr = %.2f; %s\n"
       "max |u|: %.4f mm at node %d\n",
-      nodes, tets, precision.c_str(), threads, steps, dt_s * 1e3, substeps_per_step, substeps_per_step > 1 ? "s" : "",
+      nodes, tets, sim::ToString(precision).c_str(), threads, steps, dt_s * 1e3, substeps_per_step, substeps_per_step > 1 ? "s" : "",
       simulated_s, wall_s, tet_steps_per_s / 1e6, realtime_factor, dt_s / substeps_per_step / stability.dt_critical_s,
       stability.Describe().c_str(), max_displacement_m * 1e3, max_displacement_node);
   for (const auto& [name, r] : reactions_n) {

@@ -6,6 +6,7 @@
 #include <Eigen/Core>
 
 #include "io/sim_problem.h"
+#include "sim/precision.h"
 #include "sim/stability.h"
 #include "sim/tet_mesh.h"
 
@@ -20,7 +21,7 @@ struct SimRunOptions {
 
 struct SimSummary {
   int nodes = 0, tets = 0;
-  std::string precision;
+  sim::Precision precision = sim::Precision::kFloat;
   int threads = 0;
   long long steps = 0;              // time steps of dt_s (substeps counted in substeps_per_step)
   int substeps_per_step = 1;
