@@ -90,7 +90,7 @@ void AnnotatedVideo::Add(const FramePacket& packet) {
     throw Error("the annotated video was closed while frames were still coming", path_,
                 "close it after the graph has finished");
   }
-  if (!encoder_.joinable()) Start();
+  DG_CHECK(encoder_.joinable());  // Start() first
   ArrangePicture(packet, layout_, &canvas_);
   DrawTracks(packet, layout_, canvas_);
   // Realtime never waits for the encoder; offline waits for room, so every frame is written.

@@ -37,7 +37,7 @@ void ArrangePicture(const FramePacket& packet, VideoLayout layout, cv::Mat* pict
 // MJPEG in AVI: every player and OpenCV opens it.
 //
 // Lifetime: the constructor opens the file; Start() starts the encoder's
-// thread (Add() starts it if Start() was not called); Close() drains the
+// thread, before the first Add(); Close() drains the
 // queue, joins the thread and closes the file. Add() and Close() come from
 // one thread (the sink).
 class AnnotatedVideo {
@@ -52,7 +52,7 @@ class AnnotatedVideo {
 
   // Starts the encoder's thread. @pre neither started nor closed.
   void Start();
-  // Draws the packet's frame and hands it to the encoder.
+  // Draws the packet's frame and hands it to the encoder. @pre Start()ed.
   // @throws dg::Error after Close().
   void Add(const FramePacket& packet);
   // Encodes what is queued and closes the file. Idempotent.

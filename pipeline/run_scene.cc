@@ -152,6 +152,7 @@ RunOutcome RunScene(const RunOptions& options) {
     outcome.video_path = (fs::path(options.out_dir) / "annotated.avi").string();
     const cv::Size size(built.calibration.left.width, built.calibration.left.height);
     video.emplace(outcome.video_path, source.fps(), size, options.video_layout, options.graph.policy);
+    video->Start();
     consumers.push_back([&video](const FramePacket& packet) { video->Add(packet); });
   }
   if (!options.snapshots.empty()) {
