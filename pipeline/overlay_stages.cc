@@ -38,9 +38,10 @@ OverlayDraw DrawWith(std::shared_ptr<Overlay> overlay) {
 OverlayFactory MeshesFactory(const io::Scene& scene, std::shared_ptr<const SimulationSetup> setup) {
   const std::vector<overlay::OverlaySurface> surfaces = InternalMeshSurfaces(*scene.overlays);
   for (const overlay::OverlaySurface& surface : surfaces) CheckOverlayMeshSize(scene, surface.name, surface.mesh, setup->mesh);
-  return [=](const overlay::LensView& view) {
-    return DrawWith(
-        std::make_shared<overlay::SurfaceOverlay>(overlay::SurfaceOverlay::Options{}, setup->mesh, surfaces, view));
+  return [=](const overlay::LensView& view, int layers_alive) {
+    overlay::SurfaceOverlay::Options options;
+    options.reserved_layers = layers_alive;
+    return DrawWith(std::make_shared<overlay::SurfaceOverlay>(options, setup->mesh, surfaces, view));
   };
 }
 
@@ -49,8 +50,10 @@ OverlayFactory TextureFactory(const io::Scene& scene, std::shared_ptr<const Simu
   CheckOverlayMeshSize(scene, surface.name, surface.mesh, setup->mesh);
   overlay::SurfaceOverlay::Options options;
   options.lit = false;  // landmarks and annotations in their own colours
-  return [=](const overlay::LensView& view) {
-    return DrawWith(std::make_shared<overlay::SurfaceOverlay>(options, setup->mesh, std::vector{surface}, view));
+  return [=](const overlay::LensView& view, int layers_alive) {
+    overlay::SurfaceOverlay::Options reserved = options;
+    reserved.reserved_layers = layers_alive;
+    return DrawWith(std::make_shared<overlay::SurfaceOverlay>(reserved, setup->mesh, std::vector{surface}, view));
   };
 }
 
@@ -59,8 +62,10 @@ OverlayFactory VolumeFactory(const std::string& ct_file, std::shared_ptr<const S
   auto ct = std::make_shared<const io::VolumeI16>(io::ReadMetaImage<std::int16_t>(ct_file));
   overlay::VolumeOverlay::Options options;
   options.slice_spacing_m = 1e-3;  // 28 frames/s on two cores (dynaguide bench overlay)
-  return [=](const overlay::LensView& view) {
-    return DrawWith(std::make_shared<overlay::VolumeOverlay>(options, setup->mesh, ct,
+  return [=](const overlay::LensView& view, int layers_alive) {
+    overlay::VolumeOverlay::Options reserved = options;
+    reserved.reserved_layers = layers_alive;
+    return DrawWith(std::make_shared<overlay::VolumeOverlay>(reserved, setup->mesh, ct,
                                                              overlay::TransferFunction::CardiacDefault(), view));
   };
 }
@@ -91,16 +96,26 @@ overlay::OverlaySurface TexturedSurface(const io::Scene::Overlays& assets) {
 }
 
 OverlayBranch::OverlayBranch(std::string name, int index, OverlayFactory factory, OverlayEyes eyes,
-                             std::size_t ring_capacity)
+                             const OverlayBranchOptions& options)
     : name_(std::move(name)),
       index_(index),
       factory_(std::move(factory)),
       eyes_(std::move(eyes)),
-      ring_(ring_capacity) {}
+      // An eye's layers alive at once: the one being drawn, the mailbox's, and one per frame composing.
+      layers_alive_(2 + options.composites_in_flight),
+      ring_(options.ring_capacity) {
+  if (options.composites_in_flight < 1) {
+    throw Error("composites in flight " + std::to_string(options.composites_in_flight) + " is below 1",
+                "overlay '" + name_ + "'", "give the graph's packets in flight");
+  }
+  if (options.T_C_S) BuildEyes(*options.T_C_S);
+}
 
 void OverlayBranch::BuildEyes(const Eigen::Isometry3d& T_C_S) {
-  drawing_.push_back({factory_(overlay::LensView(eyes_.calibration.left, T_C_S)), eyes_.left, {}});
-  if (eyes_.right) drawing_.push_back({factory_(overlay::RightLensView(eyes_.calibration, T_C_S)), eyes_.right, {}});
+  drawing_.push_back({factory_(overlay::LensView(eyes_.calibration.left, T_C_S), layers_alive_), eyes_.left, {}});
+  if (eyes_.right) {
+    drawing_.push_back({factory_(overlay::RightLensView(eyes_.calibration, T_C_S), layers_alive_), eyes_.right, {}});
+  }
 }
 
 void OverlayBranch::Publish(const FramePacket& packet) {

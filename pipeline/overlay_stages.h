@@ -5,6 +5,7 @@
 #include <functional>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -34,8 +35,9 @@ namespace dg::pipeline {
 using OverlayDraw = std::function<stages::overlay::OverlayLayer(const Eigen::Matrix3Xd& nodes_S, std::int64_t frame)>;
 // Builds an overlay's drawing through one eye, once the registration (the
 // camera's pose, in the view) is known. Called once per eye: each drawing
-// has buffers of its own.
-using OverlayFactory = std::function<OverlayDraw(const stages::overlay::LensView& view)>;
+// has buffers of its own, and allocates `layers_alive` layers up front (the
+// most that are ever alive at once), so that drawing allocates none.
+using OverlayFactory = std::function<OverlayDraw(const stages::overlay::LensView& view, int layers_alive)>;
 
 // Where the overlays' layers go: each eye's newest-layer mailbox, shared by
 // every branch and the composite stage (the right one only in a stereo run),
@@ -46,6 +48,16 @@ struct OverlayEyes {
   std::shared_ptr<LatestLayers> right;  // null: the left eye alone
 };
 
+struct OverlayBranchOptions {
+  std::size_t ring_capacity = 2;  // geometries waiting (more are dropped and counted)
+  // Frames the composite stage composes at once (the graph's packets in
+  // flight), each holding a layer of every overlay until it is composed.
+  int composites_in_flight = 2;
+  // The registered pose, when the scene gives it: the overlays are built with
+  // the branch, before the first frame, rather than at the first draw.
+  std::optional<Eigen::Isometry3d> T_C_S;
+};
+
 // When an overlay drew a frame (steady clock), for the run log's /overlay_timings.
 struct OverlayTiming {
   std::int64_t frame = 0;
@@ -54,9 +66,9 @@ struct OverlayTiming {
 
 class OverlayBranch final : public SideBranch {
  public:
-  // index: the overlay's entry in the compositor's options (and the eyes'
-  // mailboxes). ring_capacity: geometries waiting (more are dropped and counted).
-  OverlayBranch(std::string name, int index, OverlayFactory factory, OverlayEyes eyes, std::size_t ring_capacity = 2);
+  // index: the overlay's entry in the compositor's options (and the eyes' mailboxes).
+  OverlayBranch(std::string name, int index, OverlayFactory factory, OverlayEyes eyes,
+                const OverlayBranchOptions& options = {});
 
   const std::string& name() const override { return name_; }
   const std::string& fed_by() const override { return fed_by_; }
@@ -91,6 +103,7 @@ class OverlayBranch final : public SideBranch {
   int index_;
   OverlayFactory factory_;
   OverlayEyes eyes_;
+  int layers_alive_;
   std::vector<Eye> drawing_;  // left, then right in a stereo run; empty until the first geometry
   SpscRing<Geometry> ring_;
   std::int64_t published_ = 0;

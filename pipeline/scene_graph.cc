@@ -137,9 +137,12 @@ SceneGraph BuildSceneGraph(const io::Scene& scene, const GraphOptions& options, 
       eyes.left = std::make_shared<LatestLayers>(count);
       if (overlay_settings.right_eye) eyes.right = std::make_shared<LatestLayers>(count);
     }
+    OverlayBranchOptions branch;
+    branch.composites_in_flight = options.max_in_flight;
+    if (built.given_registration) branch.T_C_S = Eigen::Isometry3d(built.given_registration->T_C_S);
     for (size_t k = 0; k < overlays.factories.size(); ++k) {
       built.overlays.push_back(std::make_shared<OverlayBranch>(overlays.compositor.layers[k].name, static_cast<int>(k),
-                                                               std::move(overlays.factories[k]), eyes));
+                                                               std::move(overlays.factories[k]), eyes, branch));
     }
     stages.push_back(std::make_unique<ConstraintAdapter>(built.simulation, built.given_registration));
     stages.push_back(std::make_unique<FemAdapter>(built.simulation, built.overlays));

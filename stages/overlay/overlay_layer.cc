@@ -15,6 +15,10 @@ cv::Mat LayerPool::Take(cv::Size size) {
   return images_.emplace_back(size, CV_32FC4);
 }
 
+void LayerPool::Reserve(int count, cv::Size size) {
+  while (static_cast<int>(images_.size()) < count) images_.emplace_back(size, CV_32FC4);
+}
+
 OverlayLayer LayerFromRender(const render::Rasterizer& rasterizer, float opacity, std::int64_t frame, LayerPool* pool) {
   const cv::Mat& color = rasterizer.ColorSamples();  // over black: already coverage-weighted
   const cv::Mat& ids = rasterizer.ObjectIdSamples();

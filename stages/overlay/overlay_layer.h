@@ -26,6 +26,10 @@ struct OverlayLayer {
 // once. One caller at a time.
 class LayerPool {
  public:
+  // Allocates images of `size` until the pool holds `count`, so that Take()
+  // allocates nothing while at most `count` are alive at once.
+  void Reserve(int count, cv::Size size);
+
   // A CV_32FC4 image of `size` that no cv::Mat outside the pool shares;
   // its pixels are left from earlier use.
   cv::Mat Take(cv::Size size);

@@ -51,6 +51,7 @@ const SurfaceOverlay::Options& CheckedOptions(const SurfaceOverlay::Options& opt
 std::string SurfaceOverlay::Options::Validate() const {
   if (!(opacity >= 0 && opacity <= 1)) return "opacity must be within [0, 1]";
   if (supersample < 1 || supersample > 4) return "supersample must be within [1, 4]";
+  if (reserved_layers < 1) return "reserved_layers must be at least 1 (the layer being drawn)";
   return {};
 }
 
@@ -73,6 +74,7 @@ SurfaceOverlay::SurfaceOverlay(const Options& options, const sim::TetMesh& mesh,
     }
     drawn_.push_back(std::move(drawn));
   }
+  layers_.Reserve(options_.reserved_layers, {view.pinhole().width, view.pinhole().height});
 }
 
 OverlayLayer SurfaceOverlay::Process(const Eigen::Matrix3Xd& nodes_S, std::int64_t frame) {

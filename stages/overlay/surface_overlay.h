@@ -42,6 +42,10 @@ class SurfaceOverlay {
     float opacity = 0.6f;  // of the layer where the surfaces cover a pixel fully
     bool lit = true;       // false: texture or colour as is
     int supersample = 2;   // samples per pixel per axis, for smooth edges
+    // Layers allocated up front: as many as are ever alive at once (those the
+    // caller still holds, and the one being drawn), so that Process()
+    // allocates none.
+    int reserved_layers = 1;
     // Empty when valid; otherwise what is wrong.
     std::string Validate() const;
   };

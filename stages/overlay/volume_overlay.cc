@@ -62,6 +62,7 @@ int CutElement(const std::array<int, 4>& nodes, const Eigen::Matrix3Xd& view, co
 std::string VolumeOverlay::Options::Validate() const {
   if (!(slice_spacing_m > 1e-6 && slice_spacing_m < 0.1)) return "slice_spacing_m must be within (1 um, 10 cm)";
   if (!(opacity >= 0 && opacity <= 1)) return "opacity must be within [0, 1]";
+  if (reserved_layers < 1) return "reserved_layers must be at least 1 (the layer being drawn)";
   return {};
 }
 
@@ -88,6 +89,7 @@ VolumeOverlay::VolumeOverlay(const Options& options, const sim::TetMesh& mesh, s
   tiles_x_ = (view.pinhole().width + kTileSize - 1) / kTileSize;
   tiles_y_ = (view.pinhole().height + kTileSize - 1) / kTileSize;
   bins_.resize(static_cast<size_t>(tiles_x_) * tiles_y_);
+  layers_.Reserve(options_.reserved_layers, {view.pinhole().width, view.pinhole().height});
 }
 
 OverlayLayer VolumeOverlay::Process(const Eigen::Matrix3Xd& nodes_S, std::int64_t frame) {

@@ -43,6 +43,8 @@ class VolumeOverlay {
   struct Options {
     double slice_spacing_m = 0.5e-3;
     float opacity = 1.0f;  // scales the whole layer
+    // Layers allocated up front, as SurfaceOverlay::Options::reserved_layers.
+    int reserved_layers = 1;
     // Empty when valid; otherwise what is wrong.
     std::string Validate() const;
   };

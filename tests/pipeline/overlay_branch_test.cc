@@ -93,7 +93,7 @@ io::StereoCalibration StereoPair() {
 
 // An overlay whose layers are grey, of the frame of the geometry drawn.
 OverlayFactory GreyOverlay() {
-  return [](const stages::overlay::LensView&) {
+  return [](const stages::overlay::LensView&, int) {
     return [](const Eigen::Matrix3Xd&, std::int64_t frame) {
       return stages::overlay::OverlayLayer{cv::Mat(kSize, CV_32FC4, cv::Scalar(0.5f, 0.5f, 0.5f, 0.5f)), frame};
     };
@@ -115,7 +115,9 @@ TEST_CASE("overlay branch: a slow overlay holds back neither the frames nor the 
   options.layers = {{"slow", stages::overlay::BlendMode::kAlpha}};
   const std::size_t ring_capacity = 2;
   const OverlayEyes eyes{StereoPair(), std::make_shared<LatestLayers>(1), nullptr};
-  auto overlay = std::make_shared<OverlayBranch>("slow", 0, GreyOverlay(), eyes, ring_capacity);
+  OverlayBranchOptions branch;
+  branch.ring_capacity = ring_capacity;
+  auto overlay = std::make_shared<OverlayBranch>("slow", 0, GreyOverlay(), eyes, branch);
   GeometryStage simulate(overlay);
   CompositeAdapter composite(std::make_shared<stages::overlay::Compositor>(options), eyes.left);
   live_geometries = 0;
@@ -155,13 +157,15 @@ namespace {
 struct LensLog {
   std::mutex mutex;
   std::vector<stages::overlay::LensView> views;
+  std::vector<int> layers_alive;
 };
 
 OverlayFactory EyeColouredOverlay(std::shared_ptr<LensLog> log) {
-  return [log](const stages::overlay::LensView& view) {
+  return [log](const stages::overlay::LensView& view, int layers_alive) {
     {
       std::lock_guard lock(log->mutex);
       log->views.push_back(view);
+      log->layers_alive.push_back(layers_alive);
     }
     const cv::Scalar bgra = view.camera().fx() == 100 ? cv::Scalar(1, 0, 0, 1) : cv::Scalar(0, 0, 1, 1);
     return [bgra](const Eigen::Matrix3Xd&, std::int64_t frame) {
@@ -260,6 +264,28 @@ TEST_CASE("overlay branch: a stereo run draws each eye through its own lens, int
     REQUIRE(sink.right_pixels.empty());
     for (const auto& [packet, buffers] : sink.buffers) REQUIRE(buffers.second == nullptr);
   }
+}
+
+// A pose the scene gives builds both eyes' drawings with the branch, before
+// any frame, each holding as many layers as are ever alive at once: the one
+// being drawn, the mailbox's, and one per frame composing.
+TEST_CASE("overlay branch: a given pose builds the drawings up front, sized to the layers alive at once",
+          "[pipeline][unit]") {
+  const Eigen::Isometry3d T_C_S(Eigen::Translation3d(0, 0, 0.05));
+  auto lenses = std::make_shared<LensLog>();
+  const OverlayEyes eyes{StereoPair(), std::make_shared<LatestLayers>(1), std::make_shared<LatestLayers>(1)};
+  OverlayBranchOptions options;
+  options.composites_in_flight = 3;
+  const OverlayBranch unposed("eye", 0, EyeColouredOverlay(lenses), eyes, options);
+  REQUIRE(lenses->views.empty());  // built at the first draw, once a registration gives the pose
+  options.T_C_S = T_C_S;
+  const OverlayBranch posed("eye", 0, EyeColouredOverlay(lenses), eyes, options);
+  REQUIRE(lenses->views.size() == 2);
+  REQUIRE(lenses->views[0].T_C_S().isApprox(T_C_S, 1e-15));
+  REQUIRE(lenses->layers_alive == std::vector<int>{5, 5});
+  options.composites_in_flight = 0;
+  REQUIRE_THROWS_WITH(OverlayBranch("eye", 0, EyeColouredOverlay(lenses), eyes, options),
+                      Catch::Contains("composites in flight 0"));
 }
 
 }  // namespace dg::pipeline
