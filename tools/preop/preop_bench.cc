@@ -65,7 +65,7 @@ PreopBenchRecord RunPreopBench(const std::string& out_dir, int threads, bool pro
   options.ct_inputs = {(phantom / "ct" / "dicom").string()};
   options.out_dir = out_dir;
   options.like_scene = scene;
-  options.motion.threads = threads;
+  options.threads = threads;
   options.progress = progress;
   PreopBenchRecord record;
   record.threads = threads;

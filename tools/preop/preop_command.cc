@@ -30,7 +30,7 @@ void RunPreopCommand(PreopArguments& args) {
   options.progress = !args.quiet;
   const int threads = args.threads > 0 ? args.threads : tbb::info::default_concurrency();
   tbb::global_control parallelism(tbb::global_control::max_allowed_parallelism, threads);
-  options.motion.threads = threads;
+  options.threads = threads;
   const preop::PreopSummary summary = preop::RunPreop(options);
   std::fputs(summary.Describe().c_str(), stdout);
   std::printf("written to %s (report: preop.json%s)\n", options.out_dir.c_str(),

@@ -7,6 +7,8 @@
 #include <sstream>
 
 #include <opencv2/imgcodecs.hpp>
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
 
 #include "io/ct/ct_reader.h"
 #include "io/gmsh_mesher.h"
@@ -25,6 +27,28 @@
 namespace dg::tools::preop {
 namespace fs = std::filesystem;
 namespace {
+
+// Every phase registered to the first, options.threads at once (each
+// registration is single-threaded and independent of the others), with a
+// progress line per phase as it finishes. Result 0 is the identity.
+std::vector<stages::preop::PhaseDeformation> RegisterPhasesAtOnce(const std::vector<io::CtImage>& phases,
+                                                                  const PreopOptions& options) {
+  stages::preop::CheckPhases(phases);
+  std::vector<stages::preop::PhaseDeformation> deformations(phases.size());
+  tbb::task_arena arena(options.threads > 0 ? options.threads : tbb::this_task_arena::max_concurrency());
+  arena.execute([&] {
+    tbb::parallel_for(1, static_cast<int>(phases.size()), [&](int k) {
+      deformations[k] = stages::preop::RegisterPhase(phases, k, options.motion);
+      if (!options.progress) return;
+      const stages::preop::PhaseRegistrationReport& phase = deformations[k].report();
+      // One call per line: stdio locks stderr for the call, so lines from phases finishing together never interleave.
+      std::fprintf(stderr, "preop:   phase %d registered in %.1f s (metric %.4g -> %.4g, Jacobian %.3f..%.3f)\n",
+                   phase.phase, phase.wall_s, phase.metric_before, phase.metric_after, phase.min_jacobian,
+                   phase.max_jacobian);
+    });
+  });
+  return deformations;
+}
 
 using Clock = std::chrono::steady_clock;
 
@@ -113,6 +137,7 @@ std::string PreopOptions::Validate() const {
     return "give the CT's cardiac period (--period-s), or a scene to take it from (--like)";
   }
   if (period_s < 0) return "the period must be positive";
+  if (threads < 0) return "threads must be 0 (TBB's default) or more, got " + std::to_string(threads);
   for (const std::string& problem :
        {segmentation.Validate(), surface.Validate(), mesh.Validate(), motion.Validate()}) {
     if (!problem.empty()) return problem;
@@ -208,15 +233,8 @@ PreopSummary RunPreop(const PreopOptions& options) {
                            "surface constraints to hold the organ (check the mount's HU range or label)");
     }
 
-    stages::preop::MotionProgress on_phase = [&](const stages::preop::PhaseRegistrationReport& phase) {
-      if (options.progress) {
-        std::fprintf(stderr, "preop:   phase %d registered in %.1f s (metric %.4g -> %.4g, Jacobian %.3f..%.3f)\n",
-                     phase.phase, phase.wall_s, phase.metric_before, phase.metric_after, phase.min_jacobian,
-                     phase.max_jacobian);
-      }
-    };
-    const std::vector<stages::preop::PhaseDeformation> deformations = steps.Run(
-        "B-spline motion", [&] { return stages::preop::RegisterPhases(phases, options.motion, on_phase); });
+    const std::vector<stages::preop::PhaseDeformation> deformations =
+        steps.Run("B-spline motion", [&] { return RegisterPhasesAtOnce(phases, options); });
     for (const auto& deformation : deformations) summary.registration.push_back(deformation.report());
 
     const stages::FiducialMotion beads = steps.Run("fiducials", [&] {

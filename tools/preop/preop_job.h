@@ -27,6 +27,7 @@ struct PreopOptions {
   stages::preop::SurfaceOptions surface;
   stages::preop::TetrahedralisationOptions mesh;
   stages::preop::MotionRegistrationOptions motion;
+  int threads = 0;            // phases registered at once, each on one core; 0: TBB's default
   bool progress = true;       // a line per step and per phase on stderr
   std::string Validate() const;  // empty when valid
 };

@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <mutex>
 #include <sstream>
 
 // ITK 5.2 brings its own Eigen 3.3 and includes its Eigenvalues module under
@@ -27,8 +26,6 @@
 #include <itkSingleValuedCostFunction.h>
 #include <itkSmoothingRecursiveGaussianImageFilter.h>
 #include <itkTransformToDisplacementFieldFilter.h>
-#include <tbb/parallel_for.h>
-#include <tbb/task_arena.h>
 
 #include "sim/error.h"
 
@@ -349,8 +346,8 @@ void RunLevel(const Image::Pointer& fixed, const Image::Pointer& moving, const B
   report->stop_condition = summary.message;
 }
 
-BSpline::Pointer RegisterPhase(const Image::Pointer& fixed, const Image::Pointer& moving,
-                               const MotionRegistrationOptions& options, PhaseRegistrationReport* report) {
+BSpline::Pointer FitSpline(const Image::Pointer& fixed, const Image::Pointer& moving,
+                           const MotionRegistrationOptions& options, PhaseRegistrationReport* report) {
   const BSpline::Pointer transform = BSpline::New();
   for (int level = 0; level < options.levels; ++level) {
     const unsigned shrink = 1u << (options.levels - 1 - level);
@@ -378,6 +375,8 @@ BSpline::Pointer RegisterPhase(const Image::Pointer& fixed, const Image::Pointer
   }
   return transform;
 }
+
+}  // namespace
 
 void CheckPhases(const std::vector<io::CtImage>& phases) {
   if (phases.size() < 2) {
@@ -414,8 +413,6 @@ void CheckPhases(const std::vector<io::CtImage>& phases) {
   }
 }
 
-}  // namespace
-
 std::string MotionRegistrationOptions::Validate() const {
   if (!(grid_spacing_mm > 0) || !std::isfinite(grid_spacing_mm)) {
     return "grid_spacing_mm must be a positive number of millimetres, got " + std::to_string(grid_spacing_mm);
@@ -428,7 +425,6 @@ std::string MotionRegistrationOptions::Validate() const {
   if (!(bending_weight >= 0) || !std::isfinite(bending_weight)) {
     return "bending_weight must be zero or a positive number, got " + std::to_string(bending_weight);
   }
-  if (threads < 0) return "threads must be 0 (TBB's default) or more, got " + std::to_string(threads);
   return {};
 }
 
@@ -465,54 +461,48 @@ Eigen::Matrix3Xd PhaseDeformation::Displacements(const Eigen::Matrix3Xd& points_
   return u;
 }
 
-std::vector<PhaseDeformation> RegisterPhases(const std::vector<io::CtImage>& phases,
-                                             const MotionRegistrationOptions& options,
-                                             const MotionProgress& progress) {
+PhaseDeformation RegisterPhase(const std::vector<io::CtImage>& phases, int k, const MotionRegistrationOptions& options) {
   if (const std::string problem = options.Validate(); !problem.empty()) {
     throw Error(problem, "MotionRegistrationOptions", "set the option in range");
   }
   CheckPhases(phases);
-  io::CtImage grid = phases[0];
-  grid.values.clear();
+  if (k < 1 || k >= static_cast<int>(phases.size())) {
+    throw Error("phase " + std::to_string(k) + " is not one of phases 1 to " + std::to_string(phases.size() - 1),
+                "motion registration", "register each phase after the first to the first");
+  }
+  const auto start = std::chrono::steady_clock::now();
+  PhaseRegistrationReport report;
+  report.phase = k;
+  // Each call its own copies: ITK's pipeline writes into its inputs'
+  // requested regions, so images are not shared between registrations.
+  const Image::Pointer fixed = ToItkImage(phases[0]);
+  const Image::Pointer moving = ToItkImage(phases[k]);
+  auto spline = std::make_shared<PhaseDeformation::Spline>();
+  spline->grid = phases[0];
+  spline->grid.values.clear();
+  try {
+    spline->transform = FitSpline(fixed, moving, options, &report);
+    const BSpline::ParametersType result = spline->transform->GetParameters();
+    const BSpline::ParametersType identity(result.Size(), 0.0);
+    const auto full = MakeMetric(options.metric, fixed, moving, spline->transform, /*bending_weight=*/0);
+    report.metric_before = full->GetValue(identity);
+    report.metric_after = full->GetValue(result);
+    spline->transform->SetParametersByValue(result);
+    std::tie(report.min_jacobian, report.max_jacobian) = JacobianRange(spline->transform, fixed);
+  } catch (const itk::ExceptionObject& e) {
+    throw Error(std::string("ITK failed to register the phase: ") + e.GetDescription(),
+                "phase " + std::to_string(k) + " (" + phases[k].source + ")",
+                "check that the phase shows the same anatomy as phase 0 on the same grid");
+  }
+  report.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return PhaseDeformation(std::move(spline), report);
+}
 
+std::vector<PhaseDeformation> RegisterPhases(const std::vector<io::CtImage>& phases,
+                                             const MotionRegistrationOptions& options) {
+  CheckPhases(phases);
   std::vector<PhaseDeformation> deformations(phases.size());
-  std::mutex progress_mutex;
-  auto register_phase = [&](int k) {
-    const auto start = std::chrono::steady_clock::now();
-    PhaseRegistrationReport report;
-    report.phase = k;
-    // Each task its own copies: ITK's pipeline writes into its inputs'
-    // requested regions, so images are not shared between registrations.
-    const Image::Pointer fixed = ToItkImage(phases[0]);
-    const Image::Pointer moving = ToItkImage(phases[k]);
-    auto spline = std::make_shared<PhaseDeformation::Spline>();
-    spline->grid = grid;
-    try {
-      spline->transform = RegisterPhase(fixed, moving, options, &report);
-      const BSpline::ParametersType result = spline->transform->GetParameters();
-      const BSpline::ParametersType identity(result.Size(), 0.0);
-      const auto full = MakeMetric(options.metric, fixed, moving, spline->transform, /*bending_weight=*/0);
-      report.metric_before = full->GetValue(identity);
-      report.metric_after = full->GetValue(result);
-      spline->transform->SetParametersByValue(result);
-      std::tie(report.min_jacobian, report.max_jacobian) = JacobianRange(spline->transform, fixed);
-    } catch (const itk::ExceptionObject& e) {
-      throw Error(std::string("ITK failed to register the phase: ") + e.GetDescription(),
-                  "phase " + std::to_string(k) + " (" + phases[k].source + ")",
-                  "check that the phase shows the same anatomy as phase 0 on the same grid");
-    }
-    report.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    deformations[k] = PhaseDeformation(std::move(spline), report);
-    if (progress) {
-      const std::lock_guard<std::mutex> lock(progress_mutex);
-      progress(report);
-    }
-  };
-  const int concurrency = options.threads > 0 ? options.threads : tbb::this_task_arena::max_concurrency();
-  tbb::task_arena arena(concurrency);
-  arena.execute([&] {
-    tbb::parallel_for(1, static_cast<int>(phases.size()), register_phase);
-  });
+  for (int k = 1; k < static_cast<int>(phases.size()); ++k) deformations[k] = RegisterPhase(phases, k, options);
   return deformations;
 }
 

@@ -1,6 +1,5 @@
 #pragma once
 
-#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -32,7 +31,6 @@ struct MotionRegistrationOptions {
   int max_iterations = 30;        // L-BFGS iterations per level
   MotionMetric metric = MotionMetric::kMeanSquares;
   double bending_weight = 0;      // HU^2 per mm^2 of the control points' mean squared second difference (mean squares only)
-  int threads = 0;                // phases registered at once (each on one core); 0: TBB's default
 
   std::string Validate() const;  // empty when valid
 };
@@ -73,20 +71,24 @@ class PhaseDeformation {
   PhaseRegistrationReport report_;
 };
 
-// Called once per registered phase, when it is done; calls never overlap
-// (they may come from different threads).
-using MotionProgress = std::function<void(const PhaseRegistrationReport&)>;
+// @throws dg::Error for fewer than two phases, a phase whose grid (size,
+//         spacing, origin, direction) differs from phase 0, or a phase whose
+//         values do not fill its grid; each names the phase and its source.
+void CheckPhases(const std::vector<io::CtImage>& phases);
 
-// Registers phases[k] (moving) to phases[0] (fixed) for every k >= 1, several
-// phases at once (options.threads), each single-threaded. Result k maps phase-0
-// positions to phase k; result 0 is the identity.
-// @pre options.Validate() is empty.
-// @throws dg::Error on invalid options, fewer than two phases, a phase whose
-//         grid (size, spacing, origin, direction) differs from phase 0, or a
-//         phase whose values do not fill its grid; each names the phase and its source.
+// Registers phases[k] (moving) to phases[0] (fixed) on the calling thread:
+// the deformation maps phase-0 positions to phase k. Calls for different
+// phases may run at once (each makes its own ITK images, and the optimiser
+// keeps no state between calls); the result does not depend on it, to the bit.
+// @throws dg::Error on invalid options, phases CheckPhases refuses, k outside
+//         1 to phases.size() - 1, or ITK failing on the phase.
+PhaseDeformation RegisterPhase(const std::vector<io::CtImage>& phases, int k, const MotionRegistrationOptions& options);
+
+// Every phase registered in turn: result k from RegisterPhase(phases, k),
+// result 0 the identity.
+// @throws as RegisterPhase.
 std::vector<PhaseDeformation> RegisterPhases(const std::vector<io::CtImage>& phases,
-                                             const MotionRegistrationOptions& options,
-                                             const MotionProgress& progress = {});
+                                             const MotionRegistrationOptions& options);
 
 // The array scan.h5 holds as /phases/node_displacement_m: shape [P, N, 3],
 // row-major (phase, node, xyz), metres; phase p's row is

@@ -4,6 +4,8 @@
 #include <numbers>
 
 #include <catch2/catch.hpp>
+#include <tbb/global_control.h>
+#include <tbb/parallel_for.h>
 
 #include "sim/error.h"
 
@@ -54,7 +56,6 @@ MotionRegistrationOptions AnalyticOptions() {
   options.grid_spacing_mm = 12;
   options.levels = 2;
   options.max_iterations = 60;
-  options.threads = 1;
   return options;
 }
 
@@ -111,8 +112,9 @@ TEST_CASE("motion registration: phases registered at once match one at a time to
   const Eigen::Matrix3Xd points = Eigen::Matrix3Xd::Random(3, 50) * 0.015;
   const Eigen::Matrix3Xd one_at_a_time = RegisterPhases({phases[0], moving}, options)[1].Displacements(points);
   REQUIRE(one_at_a_time.norm() > 0);
-  options.threads = 2;
-  const std::vector<PhaseDeformation> at_once = RegisterPhases(phases, options);
+  tbb::global_control two(tbb::global_control::max_allowed_parallelism, 2);
+  std::vector<PhaseDeformation> at_once(phases.size());
+  tbb::parallel_for(1, static_cast<int>(phases.size()), [&](int k) { at_once[k] = RegisterPhase(phases, k, options); });
   for (size_t k = 1; k < phases.size(); ++k) {
     INFO("phase " << k);
     CHECK((at_once[k].Displacements(points) - one_at_a_time).cwiseAbs().maxCoeff() == 0.0);
@@ -130,6 +132,10 @@ TEST_CASE("motion registration: bad input gets named errors", "[unit]") {
     shifted.source = "shifted.mhd";
     REQUIRE_THROWS_WITH(RegisterPhases({cube, shifted}, AnalyticOptions()),
                         Contains("phase 1 (shifted.mhd)") && Contains("differs from phase 0"));
+  }
+  SECTION("a phase that is not one after the first") {
+    REQUIRE_THROWS_WITH(RegisterPhase({cube, cube}, 0, AnalyticOptions()), Contains("phase 0 is not one of phases 1 to 1"));
+    REQUIRE_THROWS_WITH(RegisterPhase({cube, cube}, 2, AnalyticOptions()), Contains("phase 2"));
   }
   SECTION("values that do not fill the grid") {
     io::CtImage short_phase = cube;
@@ -150,9 +156,6 @@ TEST_CASE("motion registration: bad input gets named errors", "[unit]") {
     options = AnalyticOptions();
     options.bending_weight = -1;
     CHECK_THAT(options.Validate(), Contains("bending_weight"));
-    options = AnalyticOptions();
-    options.threads = -1;
-    CHECK_THAT(options.Validate(), Contains("threads"));
     CHECK(AnalyticOptions().Validate().empty());
   }
 }

@@ -50,9 +50,7 @@ TEST_CASE("motion registration: the phantom's motion at its mesh nodes and fiduc
         SynthesizeCtPhase(grid, geometry, motion, state, assets.fiducials_S, spec.ct_noise_hu, spec.seed, k),
         "phase " + std::to_string(k)));
   }
-  MotionRegistrationOptions options;
-  options.threads = 1;
-  const std::vector<PhaseDeformation> deformations = RegisterPhases(phases, options);
+  const std::vector<PhaseDeformation> deformations = RegisterPhases(phases, MotionRegistrationOptions{});
 
   for (size_t p = 1; p < phase_ids.size(); ++p) {
     const MotionState state = HeartMotion::NominalState(double(phase_ids[p]) / spec.phases);
