@@ -11,7 +11,7 @@
 #include "sim/error.h"
 #include "tools/bench/bench_json.h"
 #include "tools/json_text.h"
-#include "tools/run/default_scene.h"
+#include "tools/phantom/phantom_cache.h"
 
 namespace dg::tools {
 namespace {

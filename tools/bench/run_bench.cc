@@ -13,7 +13,7 @@
 #include "tools/bench/bench_json.h"
 #include "tools/bench/pipeline_bench.h"
 #include "tools/json_text.h"
-#include "tools/run/default_scene.h"
+#include "tools/phantom/phantom_cache.h"
 
 namespace dg::tools {
 namespace {

@@ -20,7 +20,7 @@
 #include "tools/job_program.h"
 #include "tools/json_text.h"
 #include "tools/report/line_plot.h"
-#include "tools/run/default_scene.h"
+#include "tools/phantom/phantom_cache.h"
 
 namespace dg::tools {
 namespace {

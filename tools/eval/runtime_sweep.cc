@@ -21,7 +21,7 @@
 #include "tools/eval/runtime_mesh.h"
 #include "tools/job_program.h"
 #include "tools/report/saved_run.h"
-#include "tools/run/default_scene.h"
+#include "tools/phantom/phantom_cache.h"
 
 namespace dg::tools {
 namespace {

@@ -12,7 +12,7 @@
 #include "stages/register/fiducial_motion.h"
 #include "tools/bench/bench_json.h"
 #include "tools/json_text.h"
-#include "tools/run/default_scene.h"
+#include "tools/phantom/phantom_cache.h"
 
 namespace dg::tools::preop {
 namespace fs = std::filesystem;

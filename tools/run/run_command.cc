@@ -8,7 +8,7 @@
 #include "pipeline/stop_request.h"
 #include "sim/error.h"
 #include "tools/commands.h"
-#include "tools/run/default_scene.h"
+#include "tools/phantom/phantom_cache.h"
 
 namespace dg::tools {
 namespace {

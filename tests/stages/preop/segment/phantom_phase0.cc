@@ -5,7 +5,7 @@
 
 #include "io/metaimage.h"
 #include "stages/preop/segment/surface_extraction.h"
-#include "tools/run/default_scene.h"
+#include "tools/phantom/phantom_cache.h"
 
 namespace dg::testing {
 

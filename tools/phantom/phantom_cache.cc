@@ -1,4 +1,4 @@
-#include "tools/run/default_scene.h"
+#include "tools/phantom/phantom_cache.h"
 
 #include <cstdio>
 #include <cstdlib>

@@ -26,7 +26,7 @@ std::string TinyScene() { return dg::testing::TinyPhantomDir() + "/scene.yaml"; 
 // Only the embedding's piecewise-linear interpolation of the smooth motion
 // separates the overlay from the truth here (the simulation is bypassed).
 TEST_CASE("overlay on the phantom: true motion puts features within 0.5 px, the surface within 0.2 px",
-          "[stages][integration]") {
+          "[tools][integration]") {
   const PhantomOverlayScene scene(TinyScene());
   const io::CameraCalibration& left = scene.calibration().left;
   const sim::Embedding surface(scene.mesh(), scene.surface_points_S());
@@ -61,7 +61,7 @@ TEST_CASE("overlay on the phantom: true motion puts features within 0.5 px, the 
 // (truth.h5's uv_right_px), within the left eye's bounds. Drawn pixels are the
 // rasterizer's: the pinhole projection of the lens-moved vertices.
 TEST_CASE("overlay on the phantom: the right eye puts features within 0.5 px, the surface within 0.2 px",
-          "[stages][integration]") {
+          "[tools][integration]") {
   const PhantomOverlayScene scene(TinyScene());
   const io::StereoCalibration& calibration = scene.calibration();
   const overlay::LensView right = scene.RightView();
@@ -99,7 +99,7 @@ TEST_CASE("overlay on the phantom: the right eye puts features within 0.5 px, th
 
 // Written, readable, and drawn: each mode's picture differs from the plain frame.
 // (What it looks like is for a person to judge.)
-TEST_CASE("overlay on the phantom: each mode writes a PNG", "[stages][integration]") {
+TEST_CASE("overlay on the phantom: each mode writes a PNG", "[tools][integration]") {
   OverlaySnapshotOptions options;
   options.scene = TinyScene();
   options.out_dir = (fs::temp_directory_path() / "dg_overlay_test_png").string();
