@@ -6,8 +6,8 @@
 
 namespace dg::pipeline {
 
-Pacer::Pacer(std::function<void()> tick, std::function<void()> on_exit)
-    : tick_(std::move(tick)), on_exit_(std::move(on_exit)) {}
+Pacer::Pacer(std::function<void()> tick, std::function<void()> on_exit, const RunClock& clock)
+    : tick_(std::move(tick)), on_exit_(std::move(on_exit)), clock_(clock) {}
 
 Pacer::~Pacer() {
   Stop();
@@ -19,7 +19,7 @@ void Pacer::Start() {
   thread_ = std::thread([this] { Loop(); });
 }
 
-void Pacer::Schedule(Clock::time_point due) {
+void Pacer::Schedule(TimePoint due) {
   {
     std::lock_guard lock(mutex_);
     if (stopping_) return;
@@ -41,11 +41,9 @@ void Pacer::Join() {
   if (thread_.joinable()) thread_.join();
 }
 
-bool Pacer::WaitUntil(Clock::time_point due) {
+bool Pacer::WaitUntil(TimePoint due) {
   std::unique_lock lock(mutex_);
-  // wait_until on the steady clock: pthread_cond_clockwait, so a change of
-  // the wall clock moves no tick.
-  return !wake_.wait_until(lock, due, [this] { return stopping_; });
+  return !clock_.WaitUntil(lock, wake_, due, [this] { return stopping_; });
 }
 
 void Pacer::Loop() {
@@ -53,7 +51,7 @@ void Pacer::Loop() {
   for (;;) {
     wake_.wait(lock, [this] { return stopping_ || due_.has_value(); });
     if (stopping_) break;
-    if (wake_.wait_until(lock, *due_, [this] { return stopping_; })) break;
+    if (clock_.WaitUntil(lock, wake_, *due_, [this] { return stopping_; })) break;
     due_.reset();
     lock.unlock();  // the tick may schedule the next one
     tick_();

@@ -1,11 +1,12 @@
 #pragma once
 
-#include <chrono>
 #include <condition_variable>
 #include <functional>
 #include <mutex>
 #include <optional>
 #include <thread>
+
+#include "pipeline/run_clock.h"
 
 namespace dg::pipeline {
 
@@ -23,11 +24,13 @@ namespace dg::pipeline {
 // after Join().
 class Pacer {
  public:
-  using Clock = std::chrono::steady_clock;
+  using TimePoint = RunClock::TimePoint;
 
-  // tick: called at each scheduled time. on_exit: called last on the pacer's
-  // thread, after its last tick (the graph releases its wait there).
-  explicit Pacer(std::function<void()> tick, std::function<void()> on_exit = {});
+  // tick: called at each scheduled time on `clock`, which outlives the pacer.
+  // on_exit: called last on the pacer's thread, after its last tick (the
+  // graph releases its wait there).
+  explicit Pacer(std::function<void()> tick, std::function<void()> on_exit = {},
+                 const RunClock& clock = SteadyRunClock());
   ~Pacer();  // Stop() and Join()
   Pacer(const Pacer&) = delete;
   Pacer& operator=(const Pacer&) = delete;
@@ -36,7 +39,7 @@ class Pacer {
   void Start();
   // The next tick at `due` (at once if it has passed).
   // @pre the tick scheduled before has been called (one tick pending at most).
-  void Schedule(Clock::time_point due);
+  void Schedule(TimePoint due);
   // Ends the pacer: a pending tick is not called, and none is called after
   // the tick under way (if any) returns. Idempotent; never blocks for long.
   void Stop();
@@ -44,15 +47,16 @@ class Pacer {
   void Join();
 
   // Without the thread: blocks the caller until `due`; false if Stop() came first.
-  bool WaitUntil(Clock::time_point due);
+  bool WaitUntil(TimePoint due);
 
  private:
   void Loop();
 
   std::function<void()> tick_, on_exit_;
+  const RunClock& clock_;
   std::mutex mutex_;
   std::condition_variable wake_;
-  std::optional<Clock::time_point> due_;  // the pending tick's time
+  std::optional<TimePoint> due_;  // the pending tick's time
   bool stopping_ = false;
   std::thread thread_;
 };

@@ -121,6 +121,7 @@ class StageGraph::Runner {
   Runner(StageGraph& plan, GraphSink& sink)
       : plan_(plan),
         sink_(sink),
+        clock_(plan.options_.clock ? *plan.options_.clock : SteadyRunClock()),
         packets_(plan.options_.max_in_flight),
         free_(graph_),
         ticker_(graph_, [this](tbb::flow_control& control) { return NextTick(control); }),
@@ -139,7 +140,8 @@ class StageGraph::Runner {
     // the pacer's thread puts each tick when its frame arrives: no TBB
     // worker waits for the video clock (docs/design.md#threads).
     if (Realtime()) {
-      pacer_ = std::make_unique<Pacer>([this] { paced_ticks_.try_put(ticks_++); }, [this] { graph_.release_wait(); });
+      pacer_ = std::make_unique<Pacer>([this] { paced_ticks_.try_put(ticks_++); }, [this] { graph_.release_wait(); },
+                                       clock_);
       flow::make_edge(paced_ticks_, flow::input_port<1>(join_));
     } else {
       flow::make_edge(ticker_, flow::input_port<1>(join_));
@@ -200,7 +202,7 @@ class StageGraph::Runner {
   }
 
   GraphRunResult Run() {
-    start_ = std::chrono::steady_clock::now();
+    start_ = clock_.Now();
     if (SkipToFirstFrame()) {
       for (FramePacket& packet : packets_) free_.try_put(&packet);
       if (pacer_) {
@@ -222,7 +224,7 @@ class StageGraph::Runner {
   // calling thread without the flow graph: the reference the graph's overhead
   // is measured against.
   GraphRunResult RunInline() {
-    start_ = std::chrono::steady_clock::now();
+    start_ = clock_.Now();
     // Inline, a wake drains at once: every value handed over is taken.
     for (const auto& branch : plan_.branches_) branch->wake_ = [this, b = branch.get()] { DrainSide(*b); };
     if (SkipToFirstFrame()) {
@@ -266,7 +268,7 @@ class StageGraph::Runner {
   using SideNode = flow::function_node<flow::continue_msg, flow::continue_msg, flow::rejecting>;
 
   std::int64_t NowNs() const {
-    return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now() - start_).count();
+    return std::chrono::duration_cast<std::chrono::nanoseconds>(clock_.Now() - start_).count();
   }
 
   Sequencer& AddSequencer() {
@@ -471,8 +473,9 @@ class StageGraph::Runner {
 
   StageGraph& plan_;
   GraphSink& sink_;
+  const RunClock& clock_;
   std::vector<FramePacket> packets_;
-  std::chrono::steady_clock::time_point start_;
+  RunClock::TimePoint start_;
 
   // Written by the serial source only.
   std::int64_t position_ = 0;  // frames taken from the source, read or skipped

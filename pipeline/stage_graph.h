@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "pipeline/packet_stage.h"
+#include "pipeline/run_clock.h"
 
 namespace dg::pipeline {
 
@@ -41,6 +42,9 @@ struct GraphOptions {
   // frames it is behind on (logged to /drops, each packet's dropped_before
   // counting them), so a live run's drops replay deterministically.
   std::set<std::int64_t> drop_frames;
+  // The clock real time is paced by and every timing is taken on; it must
+  // outlive the run. Null: the steady clock (a test gives a simulated one).
+  const RunClock* clock = nullptr;
 
   std::string Validate() const;  // empty when valid
 };

@@ -7,12 +7,13 @@
 #include <array>
 #include <atomic>
 #include <chrono>
+#include <cmath>
+#include <condition_variable>
 #include <fstream>
 #include <latch>
 #include <map>
 #include <mutex>
 #include <set>
-#include <thread>
 
 #include <catch2/catch.hpp>
 #include <tbb/global_control.h>
@@ -26,6 +27,7 @@
 #include "stages/fem_stage.h"
 #include "stages/rectify.h"
 #include "tests/support/h5_plain.h"
+#include "tests/support/simulated_clock.h"
 #include "tests/support/tiny_phantom.h"
 
 namespace dg::pipeline {
@@ -96,22 +98,25 @@ class OvertakingStage final : public PacketStage {
   std::vector<std::int64_t> finished_;
 };
 
-// A stateful stage: records the order it sees, sleeps, and may fail.
+// A stateful stage: records the order it sees, may fail, and may take a
+// given time a frame on a simulated clock.
 class RecordingStage final : public PacketStage {
  public:
-  RecordingStage(double sleep_ms, std::int64_t fail_at) : sleep_ms_(sleep_ms), fail_at_(fail_at) {}
+  RecordingStage(const testing::SimulatedClock* clock, std::chrono::nanoseconds work, std::int64_t fail_at)
+      : clock_(clock), work_(work), fail_at_(fail_at) {}
   const std::string& name() const override { return name_; }
   bool stateful() const override { return true; }
   void Process(FramePacket& packet) override {
     if (packet.index == fail_at_) throw Error("injected failure", "the test's stage", "none: the test wants it");
     seen.push_back(packet.index);
-    std::this_thread::sleep_for(std::chrono::duration<double, std::milli>(sleep_ms_));
+    if (clock_) clock_->AdvanceTo(clock_->Now() + work_);
   }
   std::vector<std::int64_t> seen;
 
  private:
   std::string name_ = "recorder";
-  double sleep_ms_;
+  const testing::SimulatedClock* clock_;
+  std::chrono::nanoseconds work_;
   std::int64_t fail_at_;
 };
 
@@ -134,15 +139,21 @@ struct Outcome {
   RecordingSink sink;
 };
 
-Outcome RunTestGraph(int threads, const GraphOptions& options, double sleep_ms, std::int64_t fail_at = -1) {
+// work_per_frame: the recorder's, on a simulated clock the run is paced by and
+// timed on; zero: no work, on the steady clock.
+Outcome RunTestGraph(int threads, GraphOptions options, std::chrono::nanoseconds work_per_frame = {},
+                     std::int64_t fail_at = -1) {
   tbb::global_control parallelism(tbb::global_control::max_allowed_parallelism, threads);
+  const testing::SimulatedClock clock;
+  const bool simulated = work_per_frame.count() > 0;
+  if (simulated) options.clock = &clock;
   in_flight = 0;
   max_in_flight = 0;
   std::vector<std::unique_ptr<PacketStage>> stages;
   auto overtaking = std::make_unique<OvertakingStage>(threads > 1 && options.first_frame == 0);
   OvertakingStage* overtake = overtaking.get();
   stages.push_back(std::move(overtaking));
-  auto recorder = std::make_unique<RecordingStage>(sleep_ms, fail_at);
+  auto recorder = std::make_unique<RecordingStage>(simulated ? &clock : nullptr, work_per_frame, fail_at);
   RecordingStage* recorded = recorder.get();
   stages.push_back(std::move(recorder));
   StageGraph graph(std::make_unique<CountingSource>(TinyScene()), std::move(stages), options);
@@ -277,7 +288,7 @@ TEST_CASE("graph: offline runs are lossless and ordered on 1 and 2 threads", "[p
   REQUIRE(frames >= 20);
   for (int threads : {1, 2}) {
     CAPTURE(threads);
-    const Outcome outcome = RunTestGraph(threads, {}, 0);
+    const Outcome outcome = RunTestGraph(threads, {});
     REQUIRE(outcome.result.complete);
     REQUIRE(outcome.result.frames_done == frames);
     REQUIRE(outcome.overtaken.size() == static_cast<size_t>(frames));
@@ -325,22 +336,31 @@ TEST_CASE("graph: a frame range streams only those frames", "[pipeline][integrat
   GraphOptions options;
   options.first_frame = 5;
   options.end_frame = 12;
-  const Outcome outcome = RunTestGraph(2, options, 0);
+  const Outcome outcome = RunTestGraph(2, options);
   REQUIRE(outcome.result.complete);
   REQUIRE(outcome.sink.frames == Range(5, 12));
 }
 
-// A stage at 2.5 frame periods cannot keep up with the video clock: frames are
-// dropped at capture, every drop is reported once, every frame is either
-// processed or dropped, and no more than the limit are ever in flight.
+// A stage at 2.5 frame periods (on a simulated clock) cannot keep up with the
+// video clock: frames are dropped at capture, every drop is reported once,
+// every frame is either processed or dropped, and no more than the limit are
+// ever in flight. Over the video's n frames the stage takes one frame in 2.5
+// periods, n / 2.5, besides the frames the graph and the capture buffer hold
+// at the end (2 + 3) and the first: at least n - (n / 2.5 + 6) are dropped
+// (12 of the tiny phantom's 30). The pacer's waits may move the clock by up
+// to a period more per frame: at most n - n / 3.5 are dropped (21 of 30).
+// The tiny phantom drops 16 or 17.
 TEST_CASE("graph: realtime drops when a stage is too slow, and logs every drop", "[pipeline][integration]") {
   const io::Scene scene = TinyScene();
   const int frames = scene.video.frames;
   GraphOptions options;
   options.policy = Policy::kRealtime;
-  const Outcome outcome = RunTestGraph(2, options, 2.5 * 1000 / scene.video.fps);
+  const auto period = std::chrono::nanoseconds(std::llround(1e9 / scene.video.fps));
+  const Outcome outcome = RunTestGraph(2, options, period * 5 / 2);
   REQUIRE(outcome.result.complete);
-  REQUIRE(outcome.result.frames_dropped > frames / 3);
+  CAPTURE(outcome.result.frames_dropped, frames);
+  REQUIRE(outcome.result.frames_dropped >= frames - (frames / 2.5 + 6));
+  REQUIRE(outcome.result.frames_dropped <= frames - frames / 3.5);
   REQUIRE(outcome.sink.drops.size() == static_cast<std::size_t>(outcome.result.frames_dropped));
   std::set<std::int64_t> accounted(outcome.sink.frames.begin(), outcome.sink.frames.end());
   for (std::int64_t frame : outcome.sink.drops) REQUIRE(accounted.insert(frame).second);
@@ -349,8 +369,8 @@ TEST_CASE("graph: realtime drops when a stage is too slow, and logs every drop",
   REQUIRE(max_in_flight.load() <= options.max_in_flight);
 }
 
-// A camera at 5 frames per second (periods long against scheduling noise)
-// whose frame 1 takes 2.5 periods to process, as a first detection does.
+// A camera at 5 frames per second whose frame 1 takes 2.5 periods to
+// process, as a first detection does.
 class SlowCamera final : public PacketSource {
  public:
   static constexpr double kFps = 5;
@@ -372,14 +392,20 @@ class SlowCamera final : public PacketSource {
 
 class SlowOnceStage final : public PacketStage {
  public:
+  explicit SlowOnceStage(const testing::SimulatedClock& clock) : clock_(clock) {}
   const std::string& name() const override { return name_; }
   bool stateful() const override { return true; }
   void Process(FramePacket& packet) override {
-    if (packet.index == 1) std::this_thread::sleep_for(std::chrono::duration<double>(2.5 / SlowCamera::kFps));
+    // From the frame's arrival (the run's clock and the simulated one both
+    // start at zero), so that the end does not depend on when the pacer
+    // moved the clock to the next frame's arrival.
+    const auto work = std::chrono::nanoseconds(std::llround(2.5e9 / SlowCamera::kFps));
+    if (packet.index == 1) clock_.AdvanceTo(RunClock::TimePoint(std::chrono::nanoseconds(packet.captured_ns)) + work);
   }
 
  private:
   std::string name_ = "slow once";
+  const testing::SimulatedClock& clock_;
 };
 
 struct LatencySink final : GraphSink {
@@ -398,12 +424,14 @@ struct LatencySink final : GraphSink {
 TEST_CASE("graph: realtime's capture buffer absorbs one slow frame", "[pipeline][integration]") {
   const double period_s = 1 / SlowCamera::kFps;
   auto run = [](int buffer) {
+    const testing::SimulatedClock clock;
     GraphOptions options;
     options.policy = Policy::kRealtime;
     options.max_in_flight = 1;
     options.capture_buffer_frames = buffer;
+    options.clock = &clock;
     std::vector<std::unique_ptr<PacketStage>> stages;
-    stages.push_back(std::make_unique<SlowOnceStage>());
+    stages.push_back(std::make_unique<SlowOnceStage>(clock));
     StageGraph graph(std::make_unique<SlowCamera>(), std::move(stages), options);
     LatencySink sink;
     REQUIRE(graph.Run(sink).complete);
@@ -412,51 +440,82 @@ TEST_CASE("graph: realtime's capture buffer absorbs one slow frame", "[pipeline]
   const LatencySink buffered = run(3);
   REQUIRE(buffered.drops.empty());
   REQUIRE(buffered.frames == Range(0, SlowCamera::kFrames));
-  // Frame 2 arrived at 2 periods and waited until frame 1 was done at 3.5.
-  REQUIRE(buffered.latency_s.at(2) >= 1.4 * period_s);
-  REQUIRE(buffered.latency_s.at(2) < 2.0 * period_s);
+  // On the simulated clock only frame 1's work takes time: it arrived at 1
+  // period and was done at 3.5, and frame 2 arrived at 2 and waited until
+  // then. Both are exact: no wait for a later arrival is pending while they
+  // finish (frame 3's, at 3 periods, has passed). The frames after may end
+  // at their successor's arrival, as the pacer moves the clock there.
+  REQUIRE(buffered.latency_s.at(1) == Approx(2.5 * period_s).margin(1e-9));
+  REQUIRE(buffered.latency_s.at(2) == Approx(1.5 * period_s).margin(1e-9));
   // Frame 1 ends at 3.5 periods, when frame 3 (3 periods) is the newest: frame 2 is gone.
   const LatencySink newest_only = run(1);
   REQUIRE(newest_only.drops == std::vector<std::int64_t>{2});
 }
 
-// Two side branches woken by every frame, each draining for 3 ms (as an
-// overlay draws): both take turns while the frames stream, neither waits for
-// the drain after the last frame.
+// The side branches' drains while the frames stream, in order; a stage
+// waits on it for a drain.
+struct DrainLog {
+  std::mutex mutex;
+  std::condition_variable drained;
+  std::vector<std::string> order;  // the branch of each drain
+  bool streaming = true;           // false: the drains after the last frame are not logged
+
+  size_t size() {
+    std::lock_guard lock(mutex);
+    return order.size();
+  }
+  // Until more than `seen` drains are logged; false after 10 s, which only a
+  // graph that stopped draining its branches takes.
+  bool WaitBeyond(size_t seen) {
+    std::unique_lock lock(mutex);
+    return drained.wait_for(lock, std::chrono::seconds(10), [&] { return order.size() > seen; });
+  }
+};
+
 class CountingBranch final : public SideBranch {
  public:
-  explicit CountingBranch(std::string name) : name_(std::move(name)) {}
+  CountingBranch(std::string name, DrainLog& log) : name_(std::move(name)), log_(log) {}
   const std::string& name() const override { return name_; }
   const std::string& fed_by() const override { return feeder_; }
   void Drain() override {
-    if (!streaming) return;  // the drain after the last frame does not count
-    ++drains_while_streaming;
-    std::this_thread::sleep_for(std::chrono::milliseconds(3));
+    {
+      std::lock_guard lock(log_.mutex);
+      if (!log_.streaming) return;
+      log_.order.push_back(name_);
+    }
+    log_.drained.notify_all();
   }
-  std::atomic<bool> streaming{true};
-  std::atomic<int> drains_while_streaming{0};
 
  private:
   std::string name_, feeder_ = "waker";
+  DrainLog& log_;
 };
 
+// Wakes both branches every frame (the FEM stage handing its geometry to two
+// overlays), then waits for a drain, so that the chain never outruns the
+// side node and a branch is always woken again while the other is pending.
 class WakingStage final : public PacketStage {
  public:
-  explicit WakingStage(std::vector<std::shared_ptr<CountingBranch>> branches) : branches_(std::move(branches)) {}
+  WakingStage(std::vector<std::shared_ptr<CountingBranch>> branches, DrainLog& log)
+      : branches_(std::move(branches)), log_(log) {}
   const std::string& name() const override { return name_; }
   bool stateful() const override { return true; }
   void Process(FramePacket& packet) override {
+    const size_t seen = log_.size();
     for (const auto& branch : branches_) branch->Wake();
-    std::this_thread::sleep_for(std::chrono::milliseconds(2));  // the chain's own work
+    waits_timed_out += !log_.WaitBeyond(seen);
     if (packet.index == kLastFrame) {
-      for (const auto& branch : branches_) branch->streaming = false;
+      std::lock_guard lock(log_.mutex);
+      log_.streaming = false;
     }
   }
   static constexpr int kLastFrame = 59;
+  int waits_timed_out = 0;
 
  private:
   std::string name_ = "waker";
   std::vector<std::shared_ptr<CountingBranch>> branches_;
+  DrainLog& log_;
 };
 
 class SixtyFrames final : public PacketSource {
@@ -476,26 +535,44 @@ class SixtyFrames final : public PacketSource {
   std::int64_t next_ = 0;
 };
 
+// Each frame wakes both branches, the first first. Were the pending branches
+// drained in a fixed order, the first, woken again while the second waits,
+// would be drained every time and the second only after the last frame. In
+// turn, a branch drained is next passed over for the other if that one is
+// pending, and the other is pending from the same frame's wake on, so no
+// branch is drained more than twice in a row: each takes at least a third
+// of the drains.
 TEST_CASE("graph: side branches take turns while the frames stream", "[pipeline][integration]") {
   tbb::global_control parallelism(tbb::global_control::max_allowed_parallelism, 2);
-  const auto first = std::make_shared<CountingBranch>("first"), second = std::make_shared<CountingBranch>("second");
+  DrainLog log;
+  const auto first = std::make_shared<CountingBranch>("first", log);
+  const auto second = std::make_shared<CountingBranch>("second", log);
   std::vector<std::unique_ptr<PacketStage>> stages;
-  stages.push_back(std::make_unique<WakingStage>(std::vector<std::shared_ptr<CountingBranch>>{first, second}));
+  auto waking = std::make_unique<WakingStage>(std::vector<std::shared_ptr<CountingBranch>>{first, second}, log);
+  const WakingStage& waker = *waking;
+  stages.push_back(std::move(waking));
   StageGraph graph(std::make_unique<SixtyFrames>(), std::move(stages), {}, {first, second});
   RecordingSink sink;
   REQUIRE(graph.Run(sink).complete);
-  // 60 frames of 2 ms against drains of 3 ms in turn: each branch drains
-  // about 20 times (one task at a time, alternating); a starved branch would
-  // drain only after the last frame.
-  CAPTURE(first->drains_while_streaming.load(), second->drains_while_streaming.load());
-  CHECK(first->drains_while_streaming >= 8);
-  CHECK(second->drains_while_streaming >= 8);
+  REQUIRE(waker.waits_timed_out == 0);
+  const std::vector<std::string>& order = log.order;
+  REQUIRE(order.size() >= static_cast<size_t>(WakingStage::kLastFrame + 1));  // one drain a frame at least
+  size_t run = 1, longest_run = 1;
+  for (size_t k = 1; k < order.size(); ++k) {
+    run = order[k] == order[k - 1] ? run + 1 : 1;
+    longest_run = std::max(longest_run, run);
+  }
+  const auto drains_of = [&](const std::string& name) { return std::count(order.begin(), order.end(), name); };
+  CAPTURE(order.size(), drains_of("first"), drains_of("second"));
+  REQUIRE(longest_run <= 2);
+  REQUIRE(3 * drains_of("first") >= static_cast<std::ptrdiff_t>(order.size()) - 2);
+  REQUIRE(3 * drains_of("second") >= static_cast<std::ptrdiff_t>(order.size()) - 2);
 }
 
 TEST_CASE("graph: a failing stage stops the graph, naming stage and frame", "[pipeline][integration]") {
   for (int threads : {1, 2}) {
     CAPTURE(threads);
-    const Outcome outcome = RunTestGraph(threads, {}, 0, 7);
+    const Outcome outcome = RunTestGraph(threads, {}, {}, 7);
     REQUIRE_FALSE(outcome.result.complete);
     REQUIRE_THAT(outcome.result.error, Catch::Contains("stage 'recorder' failed at frame 7") &&
                                            Catch::Contains("injected failure"));
