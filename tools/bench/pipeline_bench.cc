@@ -38,12 +38,16 @@ pipeline::RunStatistics RunOnce(const io::Scene& scene, const PipelineBenchOptio
                              true);
 }
 
-// The repeat of median wall time.
-pipeline::RunStatistics MedianRun(const io::Scene& scene, const PipelineBenchOptions& options, bool graph) {
+// The repeats of one configuration: the run of median wall time, and the spread.
+PipelineBenchRecord Repeated(const io::Scene& scene, const PipelineBenchOptions& options, bool graph, int threads) {
   std::vector<pipeline::RunStatistics> runs;
   for (int r = 0; r < options.repeats; ++r) runs.push_back(RunOnce(scene, options, graph));
   std::sort(runs.begin(), runs.end(), [](const auto& a, const auto& b) { return a.wall_s < b.wall_s; });
-  return runs[runs.size() / 2];
+  PipelineBenchRecord record{graph ? "graph" : "sequential", threads, runs[runs.size() / 2]};
+  record.repeats = options.repeats;
+  record.fps_max = runs.front().frames_per_s;
+  record.fps_min = runs.back().frames_per_s;
+  return record;
 }
 
 }  // namespace
@@ -59,8 +63,8 @@ std::vector<PipelineBenchRecord> RunPipelineBench(const PipelineBenchOptions& op
   for (int threads : options.threads) {
     tbb::global_control parallelism(tbb::global_control::max_allowed_parallelism, threads);
     if (progress) std::fprintf(stderr, "bench pipeline: %d thread(s), %d repeats each\n", threads, options.repeats);
-    PipelineBenchRecord sequential{"sequential", threads, MedianRun(scene, options, false)};
-    PipelineBenchRecord graph{"graph", threads, MedianRun(scene, options, true)};
+    PipelineBenchRecord sequential = Repeated(scene, options, false, threads);
+    PipelineBenchRecord graph = Repeated(scene, options, true, threads);
     graph.overhead_pct = 100 * (graph.statistics.wall_s / sequential.statistics.wall_s - 1);
     if (threads == 1) graph_1_thread_s = graph.statistics.wall_s;
     if (graph_1_thread_s > 0) graph.speedup = graph_1_thread_s / graph.statistics.wall_s;
@@ -106,6 +110,9 @@ void WritePipelineBenchJson(const std::string& path, const std::vector<PipelineB
                                            {"mode", r.mode},
                                            {"frames", s.frames},
                                            {"fps", Significant(s.frames_per_s, 4)},
+                                           {"repeats", r.repeats},
+                                           {"fps_min", Significant(r.fps_min, 4)},
+                                           {"fps_max", Significant(r.fps_max, 4)},
                                            {"realtime_factor", Significant(s.realtime_factor, 4)},
                                            {"latency_ms_median", Significant(s.latency_median_ms, 4)},
                                            {"latency_ms_p95", Significant(s.latency_p95_ms, 4)},

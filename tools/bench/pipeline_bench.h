@@ -25,6 +25,10 @@ struct PipelineBenchRecord {
   // count, minus one, in percent (negative: the graph is faster, by overlapping stages)
   double overhead_pct = 0;
   double speedup = 1;  // graph only: the 1-thread graph's wall time over this one's
+  // The runs measured (statistics is the one of median wall time) and the
+  // spread of their frames/s.
+  int repeats = 1;
+  double fps_min = 0, fps_max = 0;
 };
 
 // @throws dg::Error for an unreadable scene.
@@ -32,8 +36,9 @@ std::vector<PipelineBenchRecord> RunPipelineBench(const PipelineBenchOptions& op
 // Each stage's timings as one JSON object's text: {"name": {"median_ms": .., "p95_ms": ..}, ...}
 std::string StageTimingsJson(const pipeline::RunStatistics& statistics);
 std::string PipelineBenchTable(const std::vector<PipelineBenchRecord>& records);
-// Records with threads, mode, frames, fps, realtime_factor, latency_ms_median,
-// latency_ms_p95, overhead_pct, speedup, each stage's median and p95 ms, and the machine.
+// Records with threads, mode, frames, fps (with fps_min, fps_max over the
+// repeats), realtime_factor, latency_ms_median, latency_ms_p95, overhead_pct,
+// speedup, each stage's median and p95 ms, the machine and the provenance.
 void WritePipelineBenchJson(const std::string& path, const std::vector<PipelineBenchRecord>& records);
 
 }  // namespace dg::tools
