@@ -61,7 +61,7 @@ OverlayFactory VolumeFactory(const std::string& ct_file, std::shared_ptr<const S
   // The first scan phase is the mesh's reference configuration.
   auto ct = std::make_shared<const io::VolumeI16>(io::ReadMetaImage<std::int16_t>(ct_file));
   overlay::VolumeOverlay::Options options;
-  options.slice_spacing_m = 1e-3;  // 28 frames/s on two cores (dynaguide bench overlay)
+  options.slice_spacing_m = 1e-3;  // above 15 frames/s on two cores (docs/benchmarks.md, bench overlay)
   return [=](const overlay::LensView& view, int layers_alive) {
     overlay::VolumeOverlay::Options reserved = options;
     reserved.reserved_layers = layers_alive;
