@@ -172,6 +172,15 @@ def solver_rows(t):
                   "sim_combined.json", rs)
 
 
+def fps_spread(r):
+    """ 'N frames/s (min-max over K runs)' of a front-end record, the spread when recorded."""
+    text = f"{num(r['fps'])} frames/s"
+    lo, hi, n = r.get("fps_min"), r.get("fps_max"), r.get("repeats")
+    if lo is None or hi is None or not n or n < 2:
+        return text
+    return text + f" ({num(lo)}-{num(hi)} over {n} runs)"
+
+
 def pick_mesh_file(threads, shuffled):
     found = [r for r in records("sim_mesh_file.json")
              if r.get("threads") == threads and r.get("mode") == "forward"
@@ -211,11 +220,11 @@ def front_end_rows(t):
         if r:
             t.add(f"Stereo front end per frame, {codec} video, 2 threads",
                   f"{num(r['ms_median'])} ms median, {num(r['ms_p95'])} ms p95; "
-                  f"{num(r['fps'])} frames/s", "10 ms median, 20 ms p95", "vision.json", [r])
+                  f"{fps_spread(r)}", "10 ms median, 20 ms p95", "vision.json", [r])
     r = pick("pipeline.json", mode="graph", threads=2)
     if r:
         t.add("Front-end flow graph, offline, 2 threads",
-              f"{num(r['realtime_factor'])}x real time ({num(r['fps'])} frames/s); "
+              f"{num(r['realtime_factor'])}x real time, {fps_spread(r)}; "
               f"overhead over a plain loop {num(r['overhead_pct'])}%", "3x real time",
               "pipeline.json", [r])
 

@@ -30,7 +30,10 @@ void AddVisionBench(CLI::App& bench) {
   auto json_path = std::make_shared<std::string>();
   CLI::App* vision = bench.add_subcommand("vision", "Stereo front end per frame (capture to triangulation) on the phantom");
   vision->add_option("--threads", options->threads, "Thread counts")->delimiter(',')->capture_default_str();
-  vision->add_option("--frames", options->frames, "Frames timed per thread count (0: all)")->capture_default_str();
+  vision->add_option("--frames", options->frames, "Frames timed per run (0: all)")->capture_default_str();
+  vision->add_option("--repeats", options->repeats, "Runs per codec and thread count; the run of median fps is reported")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
   vision->add_option("--seconds", options->duration_s, "Length of the generated phantom video")->capture_default_str();
   vision->add_option("--codecs", options->codecs, "The phantom video's codecs measured: raw (uncompressed), huffyuv")
       ->delimiter(',')
