@@ -3,7 +3,6 @@
 // block, /dev/zero would be read for ever, a binary file would be parsed into
 // messages of raw control bytes).
 #include <sys/stat.h>
-#include <unistd.h>
 
 #include <filesystem>
 #include <fstream>
@@ -18,6 +17,7 @@
 #include "io/scene.h"
 #include "io/sim_problem.h"
 #include "sim/error.h"
+#include "tests/support/temporary_folder.h"
 
 namespace dg::io {
 namespace {
@@ -27,17 +27,12 @@ using Catch::Matchers::Contains;
 
 // A folder of bad inputs: a binary file and a FIFO (the folder is the directory).
 struct BadInputs {
-  fs::path folder, binary, fifo;
+  const testing::TemporaryFolder temporary{"dg_faults_input"};
+  const fs::path folder = temporary.path(), binary = folder / "binary.yaml", fifo = folder / "pipe.yaml";
   BadInputs() {
-    folder = fs::temp_directory_path() / ("dg_faults_input_" + std::to_string(getpid()));
-    fs::remove_all(folder);
-    fs::create_directories(folder);
-    binary = folder / "binary.yaml";
     std::ofstream(binary, std::ios::binary) << std::string("ok: 1\n") + std::string("\x7f" "ELF\0\x02\x01", 7) + "rest";
-    fifo = folder / "pipe.yaml";
     REQUIRE(::mkfifo(fifo.c_str(), 0600) == 0);
   }
-  ~BadInputs() { fs::remove_all(folder); }
 };
 
 // The message of the dg::Error `read` throws ("" when it throws none).

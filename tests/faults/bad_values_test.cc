@@ -1,7 +1,5 @@
 // Values a user gets wrong, which would otherwise pass unnoticed or end in
 // an "unexpected error": each is refused with what, where and a fix.
-#include <unistd.h>
-
 #include <algorithm>
 #include <filesystem>
 #include <fstream>
@@ -24,6 +22,7 @@
 #include "sim/stability.h"
 #include "stages/image_sequence.h"
 #include "tests/support/h5_plain.h"
+#include "tests/support/temporary_folder.h"
 #include "tests/support/tiny_phantom.h"
 
 namespace dg {
@@ -32,8 +31,10 @@ namespace {
 namespace fs = std::filesystem;
 using Catch::Matchers::Contains;
 
+// An empty folder `name` in this process's own temporary folder, which goes when the process exits.
 fs::path FreshFolder(const std::string& name) {
-  const fs::path folder = fs::temp_directory_path() / ("dg_faults_" + name + "_" + std::to_string(getpid()));
+  static const testing::TemporaryFolder outputs("dg_faults");
+  const fs::path folder = outputs.File(name);
   fs::remove_all(folder);
   fs::create_directories(folder);
   return folder;
@@ -90,7 +91,6 @@ TEST_CASE("bad values: a calibration's T in millimetres or zero is refused, nami
   const std::string zero = (folder / "zero.yaml").string();
   io::WriteStereoCalibration(zero, calibration);
   REQUIRE_THROWS_WITH(io::ReadStereoCalibration(zero), Contains("T: is zero or not finite"));
-  fs::remove_all(folder);
 }
 
 TEST_CASE("bad values: an image sequence's number field wider than a file name's", "[faults][unit]") {
@@ -98,7 +98,6 @@ TEST_CASE("bad values: an image sequence's number field wider than a file name's
   const std::string pattern = (folder / "left_%0999999d.png").string();
   REQUIRE_THROWS_WITH(stages::ListImageSequence(pattern),
                       Contains("the number field %0999999d is wider than 18 digits") && Contains(pattern));
-  fs::remove_all(folder);
 }
 
 TEST_CASE("bad values: snapshots of frames the run does not read are refused before it starts",
@@ -115,7 +114,6 @@ TEST_CASE("bad values: snapshots of frames the run does not read are refused bef
   options.snapshots = {-1};
   REQUIRE_THROWS_WITH(pipeline::RunScene(options), Contains("names frame -1"));
   REQUIRE(fs::is_empty(options.out_dir));  // refused before anything was written
-  fs::remove_all(options.out_dir);
 }
 
 // The tiny phantom's mesh written in millimetres, its scene left saying
@@ -136,7 +134,6 @@ TEST_CASE("bad values: a mesh in millimetres read as metres is refused at scene 
   REQUIRE_THROWS_WITH(pipeline::RunScene(options), Contains("coordinates are probably in millimetres") &&
                                                     Contains("mesh_in_mm.msh") && Contains("units: mm"));
   REQUIRE(fs::is_empty(options.out_dir));
-  fs::remove_all(options.out_dir);
 }
 
 // The overlay meshes written in millimetres, as 3D Slicer writes them (the
@@ -214,8 +211,6 @@ TEST_CASE("bad values: a simulation time step above the mesh's stable limit is r
     CHECK(ratio > 0.5 * sim::DefaultStabilitySafety(scene.material.poissons_ratio));
   }
   H5Fclose(file);
-  fs::remove_all(options.out_dir);
-  fs::remove_all(substepping.out_dir);
 }
 
 // The same video for both eyes, or the eyes exchanged, stop the run at frame
@@ -247,7 +242,6 @@ TEST_CASE("bad values: both eyes the same video, or the eyes exchanged, stop the
     CHECK(testing::h5_plain::IntAttribute(file, "/", "complete") == 0);
     CHECK_THAT(testing::h5_plain::StringAttribute(file, "/", "error"), Contains(c.expected));
     H5Fclose(file);
-    fs::remove_all(options.out_dir);
   }
 }
 
@@ -283,7 +277,6 @@ TEST_CASE("bad values: a CT grid in another unit or another frame than the mesh 
     const pipeline::RunOptions options = VariantRun(c.name, text);
     REQUIRE_THROWS_WITH(pipeline::RunScene(options), Contains(c.expected) && Contains(c.name + "/phase_00.mhd"));
     REQUIRE(fs::is_empty(options.out_dir));
-    fs::remove_all(options.out_dir);
   }
 }
 
@@ -328,7 +321,6 @@ TEST_CASE("bad values: a depth range in millimetres is refused at the first fram
   REQUIRE(std::regex_search(message, fix, std::regex("--near ([0-9.e+-]+) --far ([0-9.e+-]+)")));
   CHECK(std::stod(fix[1]) < true_nearest);
   CHECK(std::stod(fix[2]) > true_farthest);
-  fs::remove_all(options.out_dir);
 }
 
 // The scene's own registration, its translation written in millimetres,
@@ -374,7 +366,6 @@ TEST_CASE("bad values: a given registration in millimetres is refused at scene l
   CHECK(nearest == Approx(nearest_mm).margin(0.011));
   CHECK(farthest == Approx(farthest_mm).margin(0.011));
   CHECK(fs::is_empty(options.out_dir));
-  fs::remove_all(options.out_dir);
 }
 
 // First-frame fiducial pixels as a user gives them (registration.fiducials_uv,
@@ -435,7 +426,6 @@ TEST_CASE("bad values: fiducial pixels out of order are reassigned, a pixel besi
   CHECK(testing::h5_plain::IntAttribute(file, "/", "complete") == 0);
   CHECK_THAT(testing::h5_plain::StringAttribute(file, "/", "error"), Contains("stage 'register'"));
   H5Fclose(file);
-  for (const pipeline::RunOptions* options : {&in_order, &swapped, &beside}) fs::remove_all(options->out_dir);
 }
 
 }  // namespace

@@ -28,6 +28,7 @@
 #include "sim/error.h"
 #include "tests/io/xml_well_formed.h"
 #include "tests/support/h5_plain.h"
+#include "tests/support/temporary_folder.h"
 #include "tools/phantom/phantom_generator.h"
 #include "tools/phantom/phantom_spec.h"
 
@@ -41,17 +42,6 @@ std::string ReadText(const std::string& path) {
   std::ifstream in(path);
   return {std::istreambuf_iterator<char>(in), {}};
 }
-
-// A fresh directory of this test process, removed with the case.
-struct ScratchDir {
-  explicit ScratchDir(const std::string& name)
-      : path((fs::temp_directory_path() / ("dg_full_disk_" + std::to_string(::getpid())) / name).string()) {
-    fs::remove_all(path);
-    fs::create_directories(path);
-  }
-  ~ScratchDir() { fs::remove_all(fs::path(path).parent_path()); }
-  const std::string path;
-};
 
 // In a child process, the files written may not grow past `limit_bytes`.
 void LimitFileSize(rlim_t limit_bytes) {
@@ -145,8 +135,8 @@ class StderrTo {
 
 TEST_CASE("full disk: an HDF5 failure, on any thread, prints nothing and is one error with its cause",
           "[faults][unit]") {
-  const ScratchDir scratch("quiet");
-  const std::string& dir = scratch.path;
+  const testing::TemporaryFolder scratch("dg_full_disk_quiet");
+  const std::string& dir = scratch.path();
   const std::string not_hdf5 = dir + "/not.h5";
   std::ofstream(not_hdf5) << "plain text, not HDF5";
   std::string message;
@@ -167,8 +157,8 @@ TEST_CASE("full disk: an HDF5 failure, on any thread, prints nothing and is one 
 }
 
 TEST_CASE("full disk: a run log is PATH.part while open and PATH once closed", "[faults][unit]") {
-  const ScratchDir scratch("life_cycle");
-  const std::string& dir = scratch.path;
+  const testing::TemporaryFolder scratch("dg_full_disk_life_cycle");
+  const std::string& dir = scratch.path();
   const std::string path = dir + "/run.h5";
   {
     io::RunLog log(path, "scene: text\n", Attributes(), {"capture", "sink"});
@@ -211,8 +201,8 @@ TEST_CASE("full disk: a run log is PATH.part while open and PATH once closed", "
 }
 
 TEST_CASE("full disk: a run log keeps the rows flushed before the disk filled", "[faults][unit]") {
-  const ScratchDir scratch("run_log");
-  const std::string& dir = scratch.path;
+  const testing::TemporaryFolder scratch("dg_full_disk_run_log");
+  const std::string& dir = scratch.path();
   const std::string path = dir + "/run.h5";
   const std::string report = dir + "/child.txt";
   constexpr int kRowsPerFlush = 500;
@@ -274,8 +264,8 @@ TEST_CASE("full disk: a run log keeps the rows flushed before the disk filled", 
 
 TEST_CASE("full disk: dynaguide run stops, keeps the frames flushed and exits cleanly", "[faults][integration]") {
   // A 3 s tiny phantom: 90 frames, the log flushed every 30 (pipeline/run_log_sink.h).
-  const ScratchDir scratch("run");
-  const std::string& dir = scratch.path;
+  const testing::TemporaryFolder scratch("dg_full_disk_run");
+  const std::string& dir = scratch.path();
   tools::phantom::PhantomSpec spec = tools::phantom::PresetSpec("tiny");
   spec.duration_s = 3.0;
   tools::phantom::GeneratePhantom(spec, dir + "/phantom", false);
@@ -305,8 +295,8 @@ TEST_CASE("full disk: dynaguide run stops, keeps the frames flushed and exits cl
 }
 
 TEST_CASE("full disk: dynaguide sim stops with its outputs whole and marked incomplete", "[faults][integration]") {
-  const ScratchDir scratch("sim");
-  const std::string& dir = scratch.path;
+  const testing::TemporaryFolder scratch("dg_full_disk_sim");
+  const std::string& dir = scratch.path();
   const std::string out = dir + "/out";
   const Finished finished =
       RunDynaguide({"sim", "--out", out, "--tets", "2000", "--threads", "2", "--quiet"}, kSimLimitBytes,

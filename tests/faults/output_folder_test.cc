@@ -14,6 +14,7 @@
 #include <catch2/catch.hpp>
 
 #include "pipeline/run_scene.h"
+#include "tests/support/temporary_folder.h"
 #include "tests/support/tiny_phantom.h"
 
 namespace dg::io {
@@ -21,12 +22,6 @@ namespace {
 
 namespace fs = std::filesystem;
 using Catch::Matchers::Contains;
-
-std::string FreshFolder(const std::string& name) {
-  const std::string folder = (fs::temp_directory_path() / ("dg_faults_" + name + "_" + std::to_string(getpid()))).string();
-  fs::remove_all(folder);
-  return folder;
-}
 
 void WriteText(const fs::path& path, const std::string& text) { std::ofstream(path) << text; }
 
@@ -37,7 +32,8 @@ std::string ReadText(const fs::path& path) {
 
 TEST_CASE("output folder: a second claim is refused naming the holder's pid, and allowed once released",
           "[faults][unit]") {
-  const std::string folder = FreshFolder("claim");
+  const testing::TemporaryFolder temporary("dg_faults_claim");
+  const std::string folder = temporary.File("out");  // not there yet: the claim makes it
   const std::string pid = std::to_string(getpid());
   {
     const OutputFolderClaim first(folder, "dynaguide run", {"run.h5"});
@@ -54,13 +50,12 @@ TEST_CASE("output folder: a second claim is refused naming the holder's pid, and
   REQUIRE_THROWS_WITH(OutputFolderClaim(file, "dynaguide sim", {"sim.h5"}),
                       Contains("the output path is a file, not a folder") && Contains("give dynaguide sim a folder"));
   REQUIRE(ReadText(file) == "mine");
-  fs::remove_all(folder);
 }
 
 TEST_CASE("output folder: an earlier run's outputs are removed; other files and the run's inputs are kept",
           "[faults][unit]") {
-  const fs::path folder = FreshFolder("stale");
-  fs::create_directories(folder);
+  const testing::TemporaryFolder temporary("dg_faults_stale");
+  const fs::path folder = temporary.path();
   for (const char* name : {"run.h5", "run.h5.part", "composite_00003.png", "annotated.avi", "registration.yaml",
                            "notes.txt", "composite.txt"}) {
     WriteText(folder / name, "earlier");
@@ -73,14 +68,14 @@ TEST_CASE("output folder: an earlier run's outputs are removed; other files and 
   for (const char* kept : {"registration.yaml", "notes.txt", "composite.txt"}) REQUIRE(fs::exists(folder / kept));
   REQUIRE(MatchesOutputName("composite_00012.png", "composite_*.png"));
   REQUIRE_FALSE(MatchesOutputName("composite_00012.jpg", "composite_*.png"));
-  fs::remove_all(folder);
 }
 
 // While another process holds the folder, `dynaguide run` into it stops
 // before writing anything, and the holder's log is left as it was.
 TEST_CASE("output folder: a run into a folder in use is refused and leaves the holder's files untouched",
           "[faults][integration]") {
-  const fs::path folder = FreshFolder("busy");
+  const testing::TemporaryFolder temporary("dg_faults_busy");
+  const fs::path folder = temporary.File("out");
   const OutputFolderClaim holder(folder.string(), "dynaguide run", pipeline::RunOutputNames());
   WriteText(folder / "run.h5.part", "the holder's log");
   pipeline::RunOptions options;
@@ -92,7 +87,6 @@ TEST_CASE("output folder: a run into a folder in use is refused and leaves the h
                                                          std::to_string(getpid()) + ")"));
   REQUIRE(ReadText(folder / "run.h5.part") == "the holder's log");
   REQUIRE_FALSE(fs::exists(folder / "run.h5"));
-  fs::remove_all(folder);
 }
 
 }  // namespace

@@ -4,7 +4,6 @@
 #include <unistd.h>
 
 #include <cstdint>
-#include <filesystem>
 #include <string>
 #include <vector>
 
@@ -12,18 +11,10 @@
 #include <hdf5.h>
 
 #include "sim/error.h"
+#include "tests/support/temporary_folder.h"
 
 namespace dg::io {
 namespace {
-
-// A file in a folder of this process's own (test processes run concurrently), made empty first.
-std::string OutputPath(const std::string& name) {
-  const std::filesystem::path dir =
-      std::filesystem::temp_directory_path() / ("dg_h5_table_test_" + std::to_string(::getpid()));
-  std::filesystem::create_directories(dir);
-  std::filesystem::remove(dir / name);
-  return (dir / name).string();
-}
 
 // One dataset as the plain HDF5 C API sees it, independently of io/.
 struct Dataset {
@@ -85,7 +76,8 @@ std::vector<double> Ramp(size_t count, double offset) {
 // through the plain C API in order, with each column's type, shape, unlimited
 // length, chunking and compression, beside the writer's own datasets.
 TEST_CASE("h5 table: rows and blocks read back through the HDF5 C API", "[io][unit]") {
-  const std::string path = OutputPath("h5_table_roundtrip.h5");
+  const testing::TemporaryFolder folder("dg_h5_table_test");
+  const std::string path = folder.File("h5_table_roundtrip.h5");
   {
     H5Writer file(path);
     file.WriteString("/scene", "text before the table");
@@ -163,7 +155,8 @@ TEST_CASE("h5 table: rows and blocks read back through the HDF5 C API", "[io][un
 // A process that dies without closing anything leaves a readable file holding
 // every row appended before its last Flush, and none of the rows after it.
 TEST_CASE("h5 table: a process killed after Flush leaves the flushed rows readable", "[io][unit]") {
-  const std::string path = OutputPath("h5_table_killed.h5");
+  const testing::TemporaryFolder folder("dg_h5_table_test");
+  const std::string path = folder.File("h5_table_killed.h5");
   const pid_t child = fork();
   REQUIRE(child >= 0);
   if (child == 0) {
@@ -186,7 +179,8 @@ TEST_CASE("h5 table: a process killed after Flush leaves the flushed rows readab
 // Values of another type or count than a column's, or a malformed column
 // list, are errors naming the column; a rejected block appends nothing.
 TEST_CASE("h5 table: mismatched values and bad columns are errors", "[io][unit]") {
-  const std::string path = OutputPath("h5_table_errors.h5");
+  const testing::TemporaryFolder folder("dg_h5_table_test");
+  const std::string path = folder.File("h5_table_errors.h5");
   H5Writer file(path);
   H5Table table(file, "/t", {{"frame", H5Type::kInt64}, {"xy", H5Type::kDouble, 2}});
   CHECK_THROWS_WITH(table.AppendRow({std::int32_t{1}, std::vector<double>{1, 2}}),

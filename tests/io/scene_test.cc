@@ -6,6 +6,7 @@
 #include <catch2/catch.hpp>
 
 #include "sim/error.h"
+#include "tests/support/temporary_folder.h"
 
 namespace dg::io {
 namespace {
@@ -36,9 +37,10 @@ video:
 truth: truth.h5
 )";
 
-// A scene directory with empty files for every name kScene uses.
-fs::path MakeSceneDir(const std::string& name, const std::string& text) {
-  const fs::path dir = fs::temp_directory_path() / name;
+// Empties `folder` and makes it a scene directory: scene.yaml holding `text`, and an empty file for every name
+// kScene uses.
+fs::path MakeSceneDir(const testing::TemporaryFolder& folder, const std::string& text) {
+  const fs::path dir = folder.path();
   fs::remove_all(dir);
   for (const char* file : {"mesh.msh", "scan.h5", "ct/phase_00.mhd", "ct/phase_01.mhd", "ct/phase_02.mhd",
                            "assets/skin.obj", "assets/a.obj", "calibration.yaml", "video/left.avi",
@@ -54,7 +56,8 @@ fs::path MakeSceneDir(const std::string& name, const std::string& text) {
 
 // Every path resolves against the scene file; units and optional parts are read.
 TEST_CASE("scene: paths resolve against the scene file", "[io][unit]") {
-  const fs::path dir = MakeSceneDir("dg_scene_test_ok", kScene);
+  const testing::TemporaryFolder folder("dg_scene_test_ok");
+  const fs::path dir = MakeSceneDir(folder, kScene);
   const Scene scene = ReadScene((dir / "scene.yaml").string());
   REQUIRE(scene.name == "test");
   REQUIRE(scene.mesh.file == (dir / "mesh.msh").string());
@@ -71,19 +74,20 @@ TEST_CASE("scene: paths resolve against the scene file", "[io][unit]") {
 
 // An unknown key, a wrong type and a missing file are errors naming the key path.
 TEST_CASE("scene: bad scenes give named errors", "[io][unit]") {
+  const testing::TemporaryFolder folder("dg_scene_test_bad");
   std::string text = kScene;
   text.replace(text.find("  fps: 30"), 9, "  fps: 30\n  rate: 30");
-  fs::path dir = MakeSceneDir("dg_scene_test_bad", text);
+  fs::path dir = MakeSceneDir(folder, text);
   REQUIRE_THROWS_WITH(ReadScene((dir / "scene.yaml").string()),
                       Catch::Contains("unknown key 'rate'") && Catch::Contains("video.rate") &&
                           Catch::Contains("scene.yaml:22"));
 
   text = kScene;
   text.replace(text.find("fps: 30"), 7, "fps: fast");
-  dir = MakeSceneDir("dg_scene_test_bad", text);
+  dir = MakeSceneDir(folder, text);
   REQUIRE_THROWS_WITH(ReadScene((dir / "scene.yaml").string()), Catch::Contains("'fps' must be a number"));
 
-  dir = MakeSceneDir("dg_scene_test_bad", kScene);
+  dir = MakeSceneDir(folder, kScene);
   fs::remove(dir / "video/right.avi");
   REQUIRE_THROWS_WITH(ReadScene((dir / "scene.yaml").string()),
                       Catch::Contains("file not found") && Catch::Contains("video/right.avi") &&
@@ -91,30 +95,31 @@ TEST_CASE("scene: bad scenes give named errors", "[io][unit]") {
 
   text = kScene;
   text.replace(text.find("ct/phase_%02d.mhd"), 17, "ct/%s.mhd");
-  dir = MakeSceneDir("dg_scene_test_bad", text);
+  dir = MakeSceneDir(folder, text);
   REQUIRE_THROWS_WITH(ReadScene((dir / "scene.yaml").string()), Catch::Contains("one integer field"));
 }
 
 // overlays: units covers its meshes and points (absent: metres); an unknown
 // unit and a mesh file of no format read are refused at load, naming the key.
 TEST_CASE("scene: overlay units and mesh formats", "[io][unit]") {
-  fs::path dir = MakeSceneDir("dg_scene_test_overlays", kScene);
+  const testing::TemporaryFolder folder("dg_scene_test_overlays");
+  fs::path dir = MakeSceneDir(folder, kScene);
   REQUIRE(ReadScene((dir / "scene.yaml").string()).overlays->metres_per_unit == 1.0);
 
   std::string text = kScene;
   text.replace(text.find("overlays:\n"), 10, "overlays:\n  units: mm\n");
-  dir = MakeSceneDir("dg_scene_test_overlays", text);
+  dir = MakeSceneDir(folder, text);
   REQUIRE(ReadScene((dir / "scene.yaml").string()).overlays->metres_per_unit == 1e-3);
 
   text = kScene;
   text.replace(text.find("overlays:\n"), 10, "overlays:\n  units: inch\n");
-  dir = MakeSceneDir("dg_scene_test_overlays", text);
+  dir = MakeSceneDir(folder, text);
   REQUIRE_THROWS_WITH(ReadScene((dir / "scene.yaml").string()),
                       Catch::Contains("unknown length unit 'inch'") && Catch::Contains("overlays.units"));
 
   text = kScene;
   text.replace(text.find("assets/a.obj"), 12, "assets/a.off");
-  dir = MakeSceneDir("dg_scene_test_overlays", text);
+  dir = MakeSceneDir(folder, text);
   std::ofstream(dir / "assets/a.off") << "";
   REQUIRE_THROWS_WITH(ReadScene((dir / "scene.yaml").string()),
                       Catch::Contains("not a surface mesh format read") && Catch::Contains("overlays.internal_meshes") &&
@@ -124,9 +129,10 @@ TEST_CASE("scene: overlay units and mesh formats", "[io][unit]") {
 // The recording's layout: side by side needs no right file; image sequences
 // are patterns, not files; a misspelt layout is named with the choices.
 TEST_CASE("scene: video layouts", "[io][unit]") {
+  const testing::TemporaryFolder folder("dg_scene_test_layout");
   std::string text = kScene;
   text.replace(text.find("  right: video/right.avi\n"), 25, "  layout: side_by_side\n  rectified: true\n");
-  fs::path dir = MakeSceneDir("dg_scene_test_layout", text);
+  fs::path dir = MakeSceneDir(folder, text);
   Scene scene = ReadScene((dir / "scene.yaml").string());
   REQUIRE(scene.video.layout == Scene::Video::Layout::kSideBySide);
   REQUIRE(scene.video.right.empty());
@@ -135,7 +141,7 @@ TEST_CASE("scene: video layouts", "[io][unit]") {
   text = kScene;
   text.replace(text.find("  left: video/left.avi\n  right: video/right.avi\n"), 48,
                "  layout: image_sequences\n  left: frames/left_%04d.png\n  right: frames/right_*.png\n");
-  dir = MakeSceneDir("dg_scene_test_layout", text);
+  dir = MakeSceneDir(folder, text);
   scene = ReadScene((dir / "scene.yaml").string());
   REQUIRE(scene.video.layout == Scene::Video::Layout::kImageSequences);
   REQUIRE(scene.video.left == (dir / "frames/left_%04d.png").string());
@@ -143,22 +149,23 @@ TEST_CASE("scene: video layouts", "[io][unit]") {
 
   text = kScene;
   text.replace(text.find("  fps: 30"), 9, "  fps: 30\n  layout: stacked");
-  dir = MakeSceneDir("dg_scene_test_layout", text);
+  dir = MakeSceneDir(folder, text);
   REQUIRE_THROWS_WITH(ReadScene((dir / "scene.yaml").string()),
                       Catch::Contains("unknown video layout 'stacked'") && Catch::Contains("video.layout") &&
                           Catch::Contains("side_by_side"));
 
   text = kScene;
   text.replace(text.find("  fps: 30"), 9, "  fps: 30\n  rectified: maybe");
-  dir = MakeSceneDir("dg_scene_test_layout", text);
+  dir = MakeSceneDir(folder, text);
   REQUIRE_THROWS_WITH(ReadScene((dir / "scene.yaml").string()), Catch::Contains("'rectified' must be true or false"));
 }
 
 // The simulation and registration blocks: defaults, values, and named errors.
 TEST_CASE("scene: simulation and registration", "[io][unit]") {
+  const testing::TemporaryFolder folder("dg_scene_test_sim");
   std::string text = kScene;
   text += "simulation:\n  mode: volume\n  dt_s: 1.0e-4\n  concurrent: false\nregistration:\n  cycles: 2\n";
-  fs::path dir = MakeSceneDir("dg_scene_test_sim", text);
+  fs::path dir = MakeSceneDir(folder, text);
   Scene scene = ReadScene((dir / "scene.yaml").string());
   REQUIRE(scene.simulation->mode == sim::SimulationMode::kVolume);
   REQUIRE(scene.simulation->dt_s == 1e-4);
@@ -169,7 +176,7 @@ TEST_CASE("scene: simulation and registration", "[io][unit]") {
   REQUIRE(scene.registration->cycles == 2);
   REQUIRE(scene.registration->file.empty());
 
-  dir = MakeSceneDir("dg_scene_test_sim", kScene + std::string("registration:\n  file: registration.yaml\n"));
+  dir = MakeSceneDir(folder, kScene + std::string("registration:\n  file: registration.yaml\n"));
   REQUIRE_THROWS_WITH(ReadScene((dir / "scene.yaml").string()),
                       Catch::Contains("file not found") && Catch::Contains("registration.file"));
   std::ofstream(dir / "registration.yaml") << "";
@@ -177,13 +184,13 @@ TEST_CASE("scene: simulation and registration", "[io][unit]") {
   REQUIRE(scene.registration->file == (dir / "registration.yaml").string());
   REQUIRE_FALSE(scene.simulation);
 
-  dir = MakeSceneDir("dg_scene_test_sim", kScene + std::string("simulation:\n  mode: rigid\n"));
+  dir = MakeSceneDir(folder, kScene + std::string("simulation:\n  mode: rigid\n"));
   // A bad mode or precision: the file, the key, the value and the values allowed.
   REQUIRE_THROWS_WITH(ReadScene((dir / "scene.yaml").string()),
                       Catch::Contains("unknown simulation mode 'rigid'") && Catch::Contains("simulation.mode") &&
                           Catch::Contains((dir / "scene.yaml").string()) &&
                           Catch::Contains("surface, volume or combined"));
-  dir = MakeSceneDir("dg_scene_test_sim", kScene + std::string("simulation:\n  precision: half\n"));
+  dir = MakeSceneDir(folder, kScene + std::string("simulation:\n  precision: half\n"));
   REQUIRE_THROWS_WITH(ReadScene((dir / "scene.yaml").string()),
                       Catch::Contains("unknown precision 'half'") && Catch::Contains("simulation.precision") &&
                           Catch::Contains((dir / "scene.yaml").string()) && Catch::Contains("float") &&
@@ -192,30 +199,30 @@ TEST_CASE("scene: simulation and registration", "[io][unit]") {
   for (sim::SimulationMode mode :
        {sim::SimulationMode::kSurface, sim::SimulationMode::kVolume, sim::SimulationMode::kCombined}) {
     for (sim::Precision precision : {sim::Precision::kFloat, sim::Precision::kDouble}) {
-      dir = MakeSceneDir("dg_scene_test_sim", kScene + std::string("simulation:\n  mode: ") + sim::ToString(mode) +
-                                                  "\n  precision: " + sim::ToString(precision) + "\n");
+      dir = MakeSceneDir(folder, kScene + std::string("simulation:\n  mode: ") + sim::ToString(mode) +
+                                     "\n  precision: " + sim::ToString(precision) + "\n");
       scene = ReadScene((dir / "scene.yaml").string());
       CHECK(scene.simulation->mode == mode);
       CHECK(scene.simulation->precision == precision);
     }
   }
-  dir = MakeSceneDir("dg_scene_test_sim", kScene + std::string("simulation:\n  time_step_policy: shrink\n"));
+  dir = MakeSceneDir(folder, kScene + std::string("simulation:\n  time_step_policy: shrink\n"));
   REQUIRE_THROWS_WITH(ReadScene((dir / "scene.yaml").string()),
                       Catch::Contains("unknown time step policy 'shrink'") &&
                           Catch::Contains("simulation.time_step_policy") && Catch::Contains("substep"));
-  dir = MakeSceneDir("dg_scene_test_sim", kScene + std::string("simulation:\n  inverse_interval_steps: 0\n"));
+  dir = MakeSceneDir(folder, kScene + std::string("simulation:\n  inverse_interval_steps: 0\n"));
   REQUIRE_THROWS_WITH(ReadScene((dir / "scene.yaml").string()),
                       Catch::Contains("'inverse_interval_steps' must lie in [1, 50]") &&
                           Catch::Contains("simulation.inverse_interval_steps"));
-  dir = MakeSceneDir("dg_scene_test_sim", kScene + std::string("simulation:\n  dt: 2e-4\n"));
+  dir = MakeSceneDir(folder, kScene + std::string("simulation:\n  dt: 2e-4\n"));
   REQUIRE_THROWS_WITH(ReadScene((dir / "scene.yaml").string()), Catch::Contains("simulation.dt"));
-  dir = MakeSceneDir("dg_scene_test_sim", kScene + std::string("registration:\n  cycles: 0.5\n"));
+  dir = MakeSceneDir(folder, kScene + std::string("registration:\n  cycles: 0.5\n"));
   REQUIRE_THROWS_WITH(ReadScene((dir / "scene.yaml").string()), Catch::Contains("registration.cycles"));
 
   // Forces recovered from the scan's motion need the scan.
   text = kScene;
   text.erase(text.find("preoperative:"), text.find("overlays:") - text.find("preoperative:"));
-  dir = MakeSceneDir("dg_scene_test_sim", text + "simulation:\n  mode: combined\n");
+  dir = MakeSceneDir(folder, text + "simulation:\n  mode: combined\n");
   REQUIRE_THROWS_WITH(ReadScene((dir / "scene.yaml").string()), Catch::Contains("needs the scan's motion"));
 }
 

@@ -9,6 +9,7 @@
 
 #include "sim/error.h"
 #include "stages/capture.h"
+#include "tests/support/temporary_folder.h"
 
 namespace dg::stages {
 namespace {
@@ -17,13 +18,6 @@ namespace fs = std::filesystem;
 using Layout = CaptureStage::Layout;
 
 const std::string kMegamind = "/usr/share/doc/opencv-doc/examples/data/Megamind.avi";
-
-fs::path TempDir(const std::string& name) {
-  const fs::path dir = fs::temp_directory_path() / ("dg_capture_test_" + name);
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
 
 std::vector<cv::Mat> ReadAll(const std::string& path, int max_frames = 1 << 30) {
   cv::VideoCapture capture(path);
@@ -72,7 +66,8 @@ TEST_CASE("capture: a real video read as left and right files", "[stages][integr
   const std::vector<cv::Mat> truth = ReadAll(kMegamind);
   std::vector<cv::Mat> mirrored(truth.size());
   for (size_t k = 0; k < truth.size(); ++k) cv::flip(truth[k], mirrored[k], 1);
-  const std::string right = (TempDir("two_files") / "right.avi").string();
+  const testing::TemporaryFolder folder("dg_capture_test_two_files");
+  const std::string right = folder.File("right.avi");
   cv::VideoCapture original(kMegamind);
   WriteVideo(right, mirrored, original.get(cv::CAP_PROP_FPS));
   CaptureStage capture({Layout::kTwoFiles, kMegamind, right, 0});
@@ -102,7 +97,8 @@ TEST_CASE("capture: a side-by-side video is split into its halves", "[stages][in
     cv::hconcat(frame, flipped, both);
     side_by_side.push_back(both);
   }
-  const std::string path = (TempDir("sbs") / "sbs.avi").string();
+  const testing::TemporaryFolder folder("dg_capture_test_sbs");
+  const std::string path = folder.File("sbs.avi");
   WriteVideo(path, side_by_side, 24);
   CaptureStage capture({Layout::kSideBySide, path, "", 0});
   REQUIRE(capture.size() == frames[0].size());
@@ -120,7 +116,8 @@ TEST_CASE("capture: a side-by-side video is split into its halves", "[stages][in
 }
 
 TEST_CASE("capture: image sequences by printf pattern and by glob", "[stages][integration]") {
-  const fs::path dir = TempDir("sequence");
+  const testing::TemporaryFolder folder("dg_capture_test_sequence");
+  const fs::path dir = folder.path();
   const std::vector<cv::Mat> left = Gradients(12, {64, 48}), right = Gradients(12, {64, 48}, 1);
   for (int j = 0; j < 12; ++j) {
     char name[64];
@@ -150,7 +147,8 @@ TEST_CASE("capture: image sequences by printf pattern and by glob", "[stages][in
 }
 
 TEST_CASE("capture: inputs that disagree are rejected or truncated, saying so", "[stages][integration]") {
-  const fs::path dir = TempDir("mismatch");
+  const testing::TemporaryFolder folder("dg_capture_test_mismatch");
+  const fs::path dir = folder.path();
   const std::string small = (dir / "small.avi").string(), large = (dir / "large.avi").string();
   const std::string short_video = (dir / "short.avi").string(), fast = (dir / "fast.avi").string();
   WriteVideo(small, Gradients(5, {64, 48}), 25);

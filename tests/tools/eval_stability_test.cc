@@ -12,6 +12,7 @@
 #include <catch2/catch.hpp>
 
 #include "sim/stability.h"
+#include "tests/support/temporary_folder.h"
 #include "tools/eval/stability_report.h"
 #include "tools/eval/stability_study.h"
 
@@ -33,12 +34,6 @@ const StudyMesh& TestMesh() {
 const BisectionResult& PaperTissueLimit() {
   static const BisectionResult limit = BisectStabilityLimit(TestMesh(), {3e3, 0.45, "default"});
   return limit;
-}
-
-std::string TempDir(const std::string& name) {
-  const fs::path dir = fs::temp_directory_path() / ("dg_eval_stability_" + name);
-  fs::remove_all(dir);
-  return dir.string();
 }
 
 }  // namespace
@@ -165,12 +160,13 @@ std::map<std::string, std::vector<std::string>> ReadCsv(const std::string& path)
 // the guard's rule and the bisected limit predict, and stability.csv (re-read
 // here) says what the results say.
 TEST_CASE("eval stability: the quick grid's outcomes and its CSV", "[integration]") {
+  const testing::TemporaryFolder folder("dg_eval_stability_quick");
   StabilityOptions options;
   options.quick = true;
   options.tets = kTestTets;
   options.threads = 2;
   options.progress = false;
-  options.out_dir = TempDir("quick");
+  options.out_dir = folder.path();
   const StabilityResult result = RunStabilityStudy(options);
   REQUIRE(result.cells.size() == DefaultStabilityGrid(true).Cells().size());
   REQUIRE(result.bisections.size() == 2);
@@ -231,7 +227,6 @@ TEST_CASE("eval stability: the quick grid's outcomes and its CSV", "[integration
     CHECK(reread.cells[k].spec.Name() == result.cells[k].spec.Name());
     CHECK(reread.cells[k].outcome == result.cells[k].outcome);
   }
-  fs::remove_all(options.out_dir);
 }
 
 }  // namespace dg::tools

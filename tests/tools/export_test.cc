@@ -4,8 +4,6 @@
 // for the registration (the truth's T_C_S in millimetres, inverted as Slicer
 // reads it), ITK's image reader for the CT (millimetres); and the inputs an
 // export cannot use are refused with a fix before the folder is touched.
-#include <unistd.h>
-
 #include <algorithm>
 #include <filesystem>
 #include <fstream>
@@ -43,6 +41,7 @@
 #include "io/surface_mesh.h"
 #include "sim/error.h"
 #include "sim/tet_mesh.h"
+#include "tests/support/temporary_folder.h"
 #include "tests/support/tiny_phantom.h"
 #include "tools/export/slicer_export.h"
 
@@ -53,16 +52,6 @@ namespace fs = std::filesystem;
 using Catch::Matchers::Contains;
 
 std::string TinyScene() { return dg::testing::TinyPhantomDir() + "/scene.yaml"; }
-
-// A folder of this test process's own, removed when it ends.
-struct TemporaryFolder {
-  std::string dir = (fs::temp_directory_path() / ("dg_export_test_" + std::to_string(::getpid()))).string();
-  TemporaryFolder() {
-    fs::remove_all(dir);
-    fs::create_directories(dir);
-  }
-  ~TemporaryFolder() { fs::remove_all(dir); }
-};
 
 // The truth's registration, in the file `dynaguide register --out` writes.
 std::string TruthRegistration(const std::string& folder) {
@@ -118,12 +107,12 @@ void RequireSameTriangles(vtkPolyData* model, const Eigen::Matrix3Xi& triangles)
 
 TEST_CASE("export slicer: the tiny phantom's models, registration and CT read back through VTK and ITK",
           "[tools][integration]") {
-  const TemporaryFolder folder;
+  const dg::testing::TemporaryFolder folder("dg_export_test");
   const io::Scene scene = io::ReadScene(TinyScene());
   SlicerExportOptions options;
   options.scene = TinyScene();
-  options.out_dir = folder.dir + "/slicer";
-  options.registration = TruthRegistration(folder.dir);
+  options.out_dir = folder.path() + "/slicer";
+  options.registration = TruthRegistration(folder.path());
   const SlicerExport exported = ExportForSlicer(options);
   const auto out = [&](const std::string& name) { return options.out_dir + "/" + name; };
 
@@ -258,7 +247,7 @@ TEST_CASE("export slicer: the tiny phantom's models, registration and CT read ba
 // A user's mesh in millimetres (written by VTK's own writer, the scene saying
 // overlays: {units: mm}) leaves the export with the file's own coordinates.
 TEST_CASE("export slicer: an overlay mesh in millimetres keeps its coordinates", "[tools][integration]") {
-  const TemporaryFolder folder;
+  const dg::testing::TemporaryFolder folder("dg_export_test");
   const std::string phantom = dg::testing::TinyPhantomDir();
   const io::SurfaceMesh chamber = io::ReadObj(phantom + "/assets/chamber_0.obj");
   const Eigen::Matrix3Xd chamber_mm = chamber.vertices_m * 1000.0;
@@ -288,8 +277,8 @@ TEST_CASE("export slicer: an overlay mesh in millimetres keeps its coordinates",
   SlicerExportOptions options;
   options.scene = phantom + "/export-mm.yaml";
   std::ofstream(options.scene) << root;
-  options.out_dir = folder.dir + "/slicer";
-  options.registration = TruthRegistration(folder.dir);
+  options.out_dir = folder.path() + "/slicer";
+  options.registration = TruthRegistration(folder.path());
   const SlicerExport exported = ExportForSlicer(options);
   REQUIRE(exported.models.front() == "internal_1_chamber_0_mm.vtk");
 
@@ -302,10 +291,10 @@ TEST_CASE("export slicer: an overlay mesh in millimetres keeps its coordinates",
 // What the export cannot use is refused, naming the fix, before the folder is created.
 TEST_CASE("export slicer: a missing registration, a scene without overlays and an unwritable folder are refused",
           "[tools][integration]") {
-  const TemporaryFolder folder;
+  const dg::testing::TemporaryFolder folder("dg_export_test");
   SlicerExportOptions options;
   options.scene = TinyScene();
-  options.out_dir = folder.dir + "/slicer";
+  options.out_dir = folder.path() + "/slicer";
 
   SECTION("no registration: the commands that write one") {
     try {
@@ -324,7 +313,7 @@ TEST_CASE("export slicer: a missing registration, a scene without overlays and a
     root.remove("overlays");
     options.scene = dg::testing::TinyPhantomDir() + "/export-no-overlays.yaml";
     std::ofstream(options.scene) << root;
-    options.registration = TruthRegistration(folder.dir);
+    options.registration = TruthRegistration(folder.path());
     try {
       ExportForSlicer(options);
       FAIL("exported a scene without overlays");
@@ -336,7 +325,7 @@ TEST_CASE("export slicer: a missing registration, a scene without overlays and a
   }
 
   SECTION("an output folder under a file") {
-    options.registration = TruthRegistration(folder.dir);
+    options.registration = TruthRegistration(folder.path());
     options.out_dir = options.registration + "/slicer";
     try {
       ExportForSlicer(options);

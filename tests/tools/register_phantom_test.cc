@@ -12,10 +12,7 @@
 // computed here from the truth's 3-D fiducial positions alone (no camera), and
 // the difference from the clock offset is reported.
 #include <cmath>
-#include <filesystem>
 #include <random>
-
-#include <unistd.h>
 
 #include <catch2/catch.hpp>
 #include <Eigen/Geometry>
@@ -26,14 +23,13 @@
 #include "stages/register/bead_detection.h"
 #include "stages/register/fiducial_motion.h"
 #include "stages/register/registration.h"
+#include "tests/support/temporary_folder.h"
 #include "tools/phantom/phantom_generator.h"
 #include "tools/register/register_run.h"
 #include "tools/register/truth_tracks.h"
 
 namespace dg::stages {
 namespace {
-
-namespace fs = std::filesystem;
 
 // The tolerances on the default phantom. Each case also bounds the
 // rotation at about twice what it reaches, to catch a regression these
@@ -52,20 +48,10 @@ struct PhantomCase {
 };
 
 // A phantom just over three cycles long (the window and a frame to spare),
-// generated into a folder removed when the process ends.
-PhantomCase MakePhantom(tools::phantom::PhantomSpec spec, const std::string& name) {
-  const std::string dir = (fs::temp_directory_path() / (name + std::to_string(::getpid()))).string();
-  fs::remove_all(dir);
+// generated into `dir`, which must outlive the case: the bead test reads the CT volumes.
+PhantomCase MakePhantom(tools::phantom::PhantomSpec spec, const std::string& dir) {
   spec.duration_s = 3 * spec.period_s() + 2 / spec.fps;
   tools::phantom::GeneratePhantom(spec, dir, false);
-  // Removed when the process ends: the bead test reads the CT volumes.
-  static std::vector<std::string> generated;
-  static const struct RemoveOnExit {
-    ~RemoveOnExit() {
-      for (const std::string& folder : generated) fs::remove_all(folder);
-    }
-  } cleanup;
-  generated.push_back(dir);
   PhantomCase p;
   p.scene = io::ReadScene(dir + "/scene.yaml");
   p.motion = ReadFiducialMotion(p.scene.preoperative->motion);
@@ -77,7 +63,8 @@ PhantomCase MakePhantom(tools::phantom::PhantomSpec spec, const std::string& nam
 
 // The default phantom, generated once per test process.
 const PhantomCase& Phantom() {
-  static const PhantomCase phantom = MakePhantom(tools::phantom::PresetSpec("default"), "dg_register_test_");
+  static const dg::testing::TemporaryFolder folder("dg_register_test");
+  static const PhantomCase phantom = MakePhantom(tools::phantom::PresetSpec("default"), folder.path());
   return phantom;
 }
 
@@ -85,11 +72,12 @@ const PhantomCase& Phantom() {
 // scan's cycle then is the video's, and the phantom's clock offset is the one
 // true phase shift.
 const PhantomCase& RegularPhantom() {
+  static const dg::testing::TemporaryFolder folder("dg_register_test_regular");
   static const PhantomCase phantom = [] {
     tools::phantom::PhantomSpec spec = tools::phantom::PresetSpec("default");
     spec.amplitude_variation = 0;
     spec.period_variation = 0;
-    return MakePhantom(spec, "dg_register_test_regular_");
+    return MakePhantom(spec, folder.path());
   }();
   return phantom;
 }

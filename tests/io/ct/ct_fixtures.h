@@ -1,9 +1,6 @@
 #pragma once
 
-// Small CTs and folders for the CT reading and writing tests. Header-only.
-#include <unistd.h>
-
-#include <filesystem>
+// Small CTs for the CT reading and writing tests. Header-only.
 #include <string>
 
 #include <Eigen/Geometry>
@@ -12,15 +9,6 @@
 #include "io/ct/dicom_writer.h"
 
 namespace dg::testing {
-
-// An empty folder of the test process's own under the temporary directory.
-inline std::string FreshTempDir(const std::string& name) {
-  const std::filesystem::path dir =
-      std::filesystem::temp_directory_path() / ("dg_ct_" + name + "_" + std::to_string(::getpid()));
-  std::filesystem::remove_all(dir);
-  std::filesystem::create_directories(dir);
-  return dir.string();
-}
 
 // A rotation about a tilted axis: an oblique scan.
 inline Eigen::Matrix3d ObliqueDirection() {

@@ -15,6 +15,7 @@
 #include "io/metaimage.h"
 #include "sim/error.h"
 #include "tests/io/ct/ct_fixtures.h"
+#include "tests/support/temporary_folder.h"
 
 namespace dg::io {
 namespace {
@@ -56,25 +57,24 @@ void RequirePhaseOffsets(const std::vector<CtImage>& phases, const std::vector<i
 
 TEST_CASE("ct phases: one folder of every phase's series is ordered by the phase tags, with their cycle fractions",
           "[unit]") {
-  const std::string dir = testing::FreshTempDir("phases_one_folder");
-  Merge(WritePhases(dir + "/separate", 4), dir + "/all");
+  const testing::TemporaryFolder temporary("dg_ct_phases_one_folder");
+  Merge(WritePhases(temporary.File("separate"), 4), temporary.File("all"));
   int calls = 0;
   CtReadOptions options;
   options.progress = [&](const CtImage&, int index, int count) {
     REQUIRE(index == calls++);
     REQUIRE(count == 4);
   };
-  const std::vector<CtImage> phases = ReadCtPhases({dir + "/all"}, options);
+  const std::vector<CtImage> phases = ReadCtPhases({temporary.File("all")}, options);
   REQUIRE(calls == 4);
   RequirePhaseOffsets(phases, {1, 2, 3, 4});
   for (int p = 0; p < 4; ++p) REQUIRE_THAT(phases[p].cycle_fraction, WithinAbs(0.25 * p, 1e-6));
-  REQUIRE(phases[2].series_uid == DeterministicUid(dir + "/separate phase 3"));
-  fs::remove_all(dir);
+  REQUIRE(phases[2].series_uid == DeterministicUid(temporary.path() + "/separate phase 3"));
 }
 
 TEST_CASE("ct phases: folders and files are read in the order given; series UIDs choose and order series", "[unit]") {
-  const std::string dir = testing::FreshTempDir("phases_given");
-  const std::vector<std::string> folders = WritePhases(dir, 3);
+  const testing::TemporaryFolder temporary("dg_ct_phases_given");
+  const std::vector<std::string> folders = WritePhases(temporary.path(), 3);
   RequirePhaseOffsets(ReadCtPhases(folders, {}), {1, 2, 3});
 
   std::vector<std::string> files;
@@ -85,52 +85,51 @@ TEST_CASE("ct phases: folders and files are read in the order given; series UIDs
     volume.spacing_m = ct.spacing_m;
     volume.origin_m = ct.origin_m;
     volume.values.assign(ct.values.begin(), ct.values.end());
-    files.push_back(dir + "/phase_" + std::to_string(p) + ".mhd");
+    files.push_back(temporary.path() + "/phase_" + std::to_string(p) + ".mhd");
     WriteMetaImage(files.back(), volume);
   }
   const std::vector<CtImage> from_files = ReadCtPhases(files, {});
   RequirePhaseOffsets(from_files, {0, 10, 20});
   REQUIRE(std::isnan(from_files[1].cycle_fraction));
 
-  Merge({folders[0], folders[2]}, dir + "/two");
+  Merge({folders[0], folders[2]}, temporary.File("two"));
   CtReadOptions options;
-  options.series_uids = {DeterministicUid(dir + " phase 1"), DeterministicUid(dir + " phase 3")};
-  RequirePhaseOffsets(ReadCtPhases({dir + "/two"}, options), {1, 3});
+  options.series_uids = {DeterministicUid(temporary.path() + " phase 1"),
+                         DeterministicUid(temporary.path() + " phase 3")};
+  RequirePhaseOffsets(ReadCtPhases({temporary.File("two")}, options), {1, 3});
   options.series_uids = {"1.2.3.4"};
-  REQUIRE_THROWS_WITH(ReadCtPhases({dir + "/two"}, options),
+  REQUIRE_THROWS_WITH(ReadCtPhases({temporary.File("two")}, options),
                       Contains("series UID 1.2.3.4 is in none of the inputs") &&
-                          Contains(DeterministicUid(dir + " phase 3")) && Contains("fix:"));
-  fs::remove_all(dir);
+                          Contains(DeterministicUid(temporary.path() + " phase 3")) && Contains("fix:"));
 }
 
 TEST_CASE("ct phases: a missing phase is an error that names it", "[unit]") {
-  const std::string dir = testing::FreshTempDir("phases_missing");
-  Merge(WritePhases(dir + "/separate", 10, /*skip=*/7), dir + "/all");
-  REQUIRE_THROWS_WITH(ReadCtPhases({dir + "/all"}, {}),
-                      Contains("a phase is missing") && Contains("60%") && Contains(dir + "/all") && Contains("fix:"));
-  fs::remove_all(dir);
+  const testing::TemporaryFolder temporary("dg_ct_phases_missing");
+  Merge(WritePhases(temporary.File("separate"), 10, /*skip=*/7), temporary.File("all"));
+  REQUIRE_THROWS_WITH(ReadCtPhases({temporary.File("all")}, {}), Contains("a phase is missing") && Contains("60%") &&
+                                                                     Contains(temporary.File("all")) &&
+                                                                     Contains("fix:"));
 }
 
 TEST_CASE("ct phases: a folder of several series with nothing to order them lists their UIDs and descriptions",
           "[unit]") {
-  const std::string dir = testing::FreshTempDir("phases_mixed");
+  const testing::TemporaryFolder temporary("dg_ct_phases_mixed");
   std::vector<std::string> folders;
   for (const char* name : {"chest", "abdomen"}) {
     DicomSeriesInfo info;
     info.study_uid = DeterministicUid("mixed");
     info.series_uid = DeterministicUid(name);
     info.series_description = name;
-    folders.push_back(dir + "/" + name);
+    folders.push_back(temporary.path() + "/" + name);
     WriteDicomSeries(testing::SmallCt(), folders.back(), info);
   }
-  Merge(folders, dir + "/mixed");
-  for (const auto& read : std::vector<std::function<void()>>{[&] { ReadCtPhases({dir + "/mixed"}, {}); },
-                                                              [&] { ReadCtImage(dir + "/mixed"); }}) {
+  Merge(folders, temporary.File("mixed"));
+  for (const auto& read : std::vector<std::function<void()>>{[&] { ReadCtPhases({temporary.File("mixed")}, {}); },
+                                                             [&] { ReadCtImage(temporary.File("mixed")); }}) {
     REQUIRE_THROWS_WITH(read(), Contains("holds 2") && Contains(DeterministicUid("chest")) && Contains("'chest'") &&
                                     Contains(DeterministicUid("abdomen")) && Contains("'abdomen'") &&
                                     Contains("select the") && Contains("fix:"));
   }
-  fs::remove_all(dir);
 }
 
 // The Modality element (0008,0060) of a file, "CT", made "MR".
@@ -149,19 +148,18 @@ void PatchModalityToMr(const std::string& file) {
 }
 
 TEST_CASE("ct phases: a modality other than CT is refused where a CT is expected, read as a label map", "[unit]") {
-  const std::string dir = testing::FreshTempDir("phases_modality");
-  const std::vector<std::string> folders = WritePhases(dir, 2);
+  const testing::TemporaryFolder temporary("dg_ct_phases_modality");
+  const std::vector<std::string> folders = WritePhases(temporary.path(), 2);
   for (const auto& entry : fs::directory_iterator(folders[1])) PatchModalityToMr(entry.path().string());
   REQUIRE_THROWS_WITH(ReadCtPhases(folders, {}), Contains("modality is 'MR', not CT") && Contains(folders[1]));
   REQUIRE(ReadLabelMap(folders[1]).values == testing::SmallCt(2).values);
   // pydicom's own MR file.
   REQUIRE_THROWS_WITH(ReadCtImage(kPydicomFiles + "MR_small.dcm"), Contains("'MR', not CT") && Contains("MR_small.dcm"));
   REQUIRE(ReadLabelMap(kPydicomFiles + "MR_small.dcm").size == Eigen::Vector3i(64, 64, 1));
-  fs::remove_all(dir);
 }
 
 TEST_CASE("ct phases: phases on different grids are an error naming both phases and their values", "[unit]") {
-  const std::string dir = testing::FreshTempDir("phases_grids");
+  const testing::TemporaryFolder temporary("dg_ct_phases_grids");
   const CtImage first = testing::SmallCt();
   CtImage finer = first;
   finer.spacing_m.z() = 1.25e-3;
@@ -169,36 +167,38 @@ TEST_CASE("ct phases: phases on different grids are an error naming both phases 
   CtImage bigger = testing::PatternCt({5, 4, 4}, first.spacing_m, first.origin_m, first.direction);
   int n = 0;
   for (const auto& [other, what] : {std::pair{finer, "spacing"}, {turned, "orientation"}, {bigger, "size"}}) {
-    const std::string a = dir + "/a" + std::to_string(n), b = dir + "/b" + std::to_string(n++);
+    const std::string a = temporary.path() + "/a" + std::to_string(n),
+                      b = temporary.path() + "/b" + std::to_string(n++);
     WriteDicomSeries(first, a, testing::PhaseInfo(a, 1, 2));
     WriteDicomSeries(other, b, testing::PhaseInfo(b, 2, 2));
     REQUIRE_THROWS_WITH(ReadCtPhases({a, b}, {}), Contains(std::string("the phases differ in ") + what) &&
                                                       Contains(a) && Contains(b) && Contains("1.5 mm") &&
                                                       Contains("fix:"));
   }
-  fs::remove_all(dir);
 }
 
 TEST_CASE("ct phases: missing, unreadable, truncated and unsupported files are errors naming them", "[unit]") {
-  const std::string dir = testing::FreshTempDir("phases_unreadable");
-  REQUIRE_THROWS_WITH(ReadCtImage(dir + "/absent.nii.gz"), Contains("no such file") && Contains("absent.nii.gz"));
-  std::ofstream(dir + "/notes.txt") << "not an image\n";
-  REQUIRE_THROWS_WITH(ReadCtImage(dir + "/notes.txt"), Contains("no image reader takes this file") && Contains(".nii.gz"));
-  std::ofstream(dir + "/garbage.mha") << "ObjectType = Image\nNDims = 3\nDimSize = 10 10 10\n"
-                                         "ElementType = MET_SHORT\nElementDataFile = LOCAL\n" << "short";
-  REQUIRE_THROWS_WITH(ReadCtImage(dir + "/garbage.mha"), Contains("truncated: 5 bytes where the header says 2000") &&
-                                                          Contains("garbage.mha"));
-  std::ofstream(dir + "/garbage.nii.gz") << "not gzip at all, and not NIfTI either";
-  REQUIRE_THROWS_WITH(ReadCtImage(dir + "/garbage.nii.gz"), Contains("garbage.nii.gz") && Contains("fix:"));
-  fs::create_directories(dir + "/empty");
-  REQUIRE_THROWS_WITH(ReadCtPhases({dir + "/empty"}, {}), Contains("no DICOM series in the folder or its subfolders") &&
-                                                          Contains("empty"));
+  const testing::TemporaryFolder temporary("dg_ct_phases_unreadable");
+  REQUIRE_THROWS_WITH(ReadCtImage(temporary.File("absent.nii.gz")),
+                      Contains("no such file") && Contains("absent.nii.gz"));
+  std::ofstream(temporary.File("notes.txt")) << "not an image\n";
+  REQUIRE_THROWS_WITH(ReadCtImage(temporary.File("notes.txt")),
+                      Contains("no image reader takes this file") && Contains(".nii.gz"));
+  std::ofstream(temporary.File("garbage.mha")) << "ObjectType = Image\nNDims = 3\nDimSize = 10 10 10\n"
+                                                  "ElementType = MET_SHORT\nElementDataFile = LOCAL\n"
+                                               << "short";
+  REQUIRE_THROWS_WITH(ReadCtImage(temporary.File("garbage.mha")),
+                      Contains("truncated: 5 bytes where the header says 2000") && Contains("garbage.mha"));
+  std::ofstream(temporary.File("garbage.nii.gz")) << "not gzip at all, and not NIfTI either";
+  REQUIRE_THROWS_WITH(ReadCtImage(temporary.File("garbage.nii.gz")), Contains("garbage.nii.gz") && Contains("fix:"));
+  fs::create_directories(temporary.File("empty"));
+  REQUIRE_THROWS_WITH(ReadCtPhases({temporary.File("empty")}, {}),
+                      Contains("no DICOM series in the folder or its subfolders") && Contains("empty"));
   // A series with a slice gone: unevenly spaced slices.
   CtImage tall = testing::PatternCt({4, 4, 5}, {1e-3, 1e-3, 2e-3}, Eigen::Vector3d::Zero(), Eigen::Matrix3d::Identity());
-  WriteDicomSeries(tall, dir + "/gap", testing::PhaseInfo("gap", 1, 1));
-  fs::remove(dir + "/gap/slice_0002.dcm");
-  REQUIRE_THROWS_WITH(ReadCtImage(dir + "/gap"), Contains("unevenly spaced") && Contains("gap"));
-  fs::remove_all(dir);
+  WriteDicomSeries(tall, temporary.File("gap"), testing::PhaseInfo("gap", 1, 1));
+  fs::remove(temporary.File("gap/slice_0002.dcm"));
+  REQUIRE_THROWS_WITH(ReadCtImage(temporary.File("gap")), Contains("unevenly spaced") && Contains("gap"));
 }
 
 }  // namespace

@@ -4,7 +4,6 @@
 #include "io/ct/ct_reader.h"
 
 #include <cmath>
-#include <filesystem>
 #include <fstream>
 #include <functional>
 
@@ -19,11 +18,11 @@
 #include "io/metaimage.h"
 #include "tests/io/ct/ct_fixtures.h"
 #include "tests/io/ct/pydicom_facts.h"
+#include "tests/support/temporary_folder.h"
 
 namespace dg::io {
 namespace {
 
-namespace fs = std::filesystem;
 using Catch::Matchers::WithinAbs;
 
 const std::string kPydicomFiles = "/usr/lib/python3/dist-packages/pydicom/data/test_files/";
@@ -106,7 +105,7 @@ TEST_CASE("ct reader: pydicom's CT_small.dcm reads to the HU, spacing, position 
 
 TEST_CASE("ct reader: NIfTI, NRRD and MetaImage, compressed or not, of several pixel types, read to their voxels and frame",
           "[unit]") {
-  const std::string dir = testing::FreshTempDir("formats");
+  const testing::TemporaryFolder temporary("dg_ct_formats");
   const Eigen::Vector3i n(7, 5, 4);
   const Eigen::Vector3d spacing(0.7, 0.8, 1.25), origin(-12.5, 30.25, -7.0);
   const Eigen::Matrix3d R = testing::ObliqueDirection();
@@ -129,7 +128,7 @@ TEST_CASE("ct reader: NIfTI, NRRD and MetaImage, compressed or not, of several p
   };
   for (const Case& c : cases) {
     INFO(c.name);
-    const std::string path = dir + "/" + c.name;
+    const std::string path = temporary.path() + "/" + c.name;
     c.write(path);
     const CtImage ct = ReadCtImage(path);
     // NIfTI stores its frame as float quaternion and offsets: a few 1e-7 of rounding.
@@ -145,20 +144,19 @@ TEST_CASE("ct reader: NIfTI, NRRD and MetaImage, compressed or not, of several p
     }
     REQUIRE(max_difference == 0);
   }
-  fs::remove_all(dir);
 }
 
 TEST_CASE("ct reader: a NRRD header written by hand in LPS space gives its space directions and origin", "[unit]") {
-  const std::string dir = testing::FreshTempDir("nrrd");
+  const testing::TemporaryFolder temporary("dg_ct_nrrd");
   {
-    std::ofstream header(dir + "/ct.nhdr");
+    std::ofstream header(temporary.File("ct.nhdr"));
     header << "NRRD0004\ntype: short\ndimension: 3\nspace: left-posterior-superior\nsizes: 3 2 2\n"
               "space directions: (0,0.5,0) (-2,0,0) (0,0,3)\nspace origin: (10,20,30)\nkinds: domain domain domain\n"
               "endian: little\nencoding: raw\ndata file: ct.raw\n";
-    std::ofstream raw(dir + "/ct.raw", std::ios::binary);
+    std::ofstream raw(temporary.File("ct.raw"), std::ios::binary);
     for (int16_t v = 0; v < 12; ++v) raw.write(reinterpret_cast<const char*>(&v), sizeof v);
   }
-  const CtImage ct = ReadCtImage(dir + "/ct.nhdr");
+  const CtImage ct = ReadCtImage(temporary.File("ct.nhdr"));
   Eigen::Matrix3d R;
   R << 0, -1, 0,  //
       1, 0, 0,    //
@@ -167,22 +165,20 @@ TEST_CASE("ct reader: a NRRD header written by hand in LPS space gives its space
   for (int v = 0; v < 12; ++v) REQUIRE(ct.values[v] == v);
   // Voxel (1, 1, 1) at origin + 0.5 (0,1,0) + 2 (-1,0,0) + 3 (0,0,1) mm.
   REQUIRE((ct.PointOf(1, 1, 1) - 1e-3 * Eigen::Vector3d(8, 20.5, 33)).norm() < 1e-12);
-  fs::remove_all(dir);
 }
 
 TEST_CASE("ct reader: the project's own MetaImage reads through ITK to the voxels and frame its reader gives", "[unit]") {
-  const std::string dir = testing::FreshTempDir("metaimage");
+  const testing::TemporaryFolder temporary("dg_ct_metaimage");
   VolumeI16 volume;
   volume.size = {6, 4, 3};
   volume.spacing_m = {1e-3, 1.5e-3, 2e-3};
   volume.origin_m = {-0.031, 0.002, -0.005};
   for (size_t v = 0; v < volume.num_voxels(); ++v) volume.values.push_back(static_cast<int16_t>(-1000 + 37 * v));
-  WriteMetaImage(dir + "/ct.mhd", volume);
-  const VolumeI16 own = ReadMetaImage<int16_t>(dir + "/ct.mhd");
-  const CtImage ct = ReadCtImage(dir + "/ct.mhd");
+  WriteMetaImage(temporary.File("ct.mhd"), volume);
+  const VolumeI16 own = ReadMetaImage<int16_t>(temporary.File("ct.mhd"));
+  const CtImage ct = ReadCtImage(temporary.File("ct.mhd"));
   RequireFrame(ct, own.size, 1e3 * own.spacing_m, 1e3 * own.origin_m, Eigen::Matrix3d::Identity());
   for (size_t v = 0; v < own.num_voxels(); ++v) REQUIRE(ct.values[v] == own.values[v]);
-  fs::remove_all(dir);
 }
 
 }  // namespace

@@ -14,6 +14,7 @@
 #include "io/ct/ct_reader.h"
 #include "tests/io/ct/ct_fixtures.h"
 #include "tests/io/ct/pydicom_facts.h"
+#include "tests/support/temporary_folder.h"
 
 namespace dg::io {
 namespace {
@@ -27,10 +28,10 @@ std::string Bytes(const std::string& path) {
 }
 
 TEST_CASE("dicom writer: a CT written as a series reads back to the same voxels and frame, oblique or not", "[unit]") {
-  const std::string dir = testing::FreshTempDir("dicom_roundtrip");
+  const testing::TemporaryFolder temporary("dg_ct_dicom_roundtrip");
   for (const Eigen::Matrix3d& R : std::vector<Eigen::Matrix3d>{Eigen::Matrix3d::Identity(), testing::ObliqueDirection()}) {
     const CtImage ct = testing::PatternCt({6, 5, 4}, {0.7e-3, 0.9e-3, 1.25e-3}, {-0.0125, 0.03025, -0.007}, R);
-    const std::string folder = dir + "/series";
+    const std::string folder = temporary.File("series");
     fs::remove_all(folder);
     WriteDicomSeries(ct, folder, testing::PhaseInfo("roundtrip", 1, 1));
     const CtImage back = ReadCtImage(folder);
@@ -42,19 +43,18 @@ TEST_CASE("dicom writer: a CT written as a series reads back to the same voxels 
     REQUIRE(back.values == ct.values);
     REQUIRE(back.series_uid == DeterministicUid("roundtrip phase 1"));
   }
-  fs::remove_all(dir);
 }
 
 TEST_CASE("dicom writer: pydicom reads the series' modality, UIDs, positions, rescale, phase tags and HU", "[integration]") {
-  const std::string dir = testing::FreshTempDir("dicom_pydicom");
+  const testing::TemporaryFolder temporary("dg_ct_dicom_pydicom");
   const CtImage ct = testing::PatternCt({5, 4, 3}, {0.8e-3, 0.6e-3, 1.5e-3}, {-0.01, 0.02, -0.03},
                                         testing::ObliqueDirection());
   DicomSeriesInfo info = testing::PhaseInfo("pydicom", 4, 10);
   info.cycle_fraction = 0.3;
   info.trigger_time_ms = 200;
   info.heart_rate_bpm = 90;
-  WriteDicomSeries(ct, dir, info);
-  const std::vector<testing::PydicomFile> files = testing::ReadWithPydicom(dir, /*pixels=*/true);
+  WriteDicomSeries(ct, temporary.path(), info);
+  const std::vector<testing::PydicomFile> files = testing::ReadWithPydicom(temporary.path(), /*pixels=*/true);
   REQUIRE(files.size() == 3);
   std::set<std::string> sop_uids;
   for (int k = 0; k < 3; ++k) {
@@ -93,22 +93,20 @@ TEST_CASE("dicom writer: pydicom reads the series' modality, UIDs, positions, re
     }
   }
   REQUIRE(sop_uids.size() == 3);
-  fs::remove_all(dir);
 }
 
 TEST_CASE("dicom writer: the same CT and information write the same bytes", "[unit]") {
-  const std::string dir = testing::FreshTempDir("dicom_bytes");
+  const testing::TemporaryFolder temporary("dg_ct_dicom_bytes");
   const CtImage ct = testing::SmallCt();
-  WriteDicomSeries(ct, dir + "/a", testing::PhaseInfo("bytes", 1, 2));
-  WriteDicomSeries(ct, dir + "/b", testing::PhaseInfo("bytes", 1, 2));
+  WriteDicomSeries(ct, temporary.File("a"), testing::PhaseInfo("bytes", 1, 2));
+  WriteDicomSeries(ct, temporary.File("b"), testing::PhaseInfo("bytes", 1, 2));
   int files = 0;
-  for (const auto& entry : fs::directory_iterator(dir + "/a")) {
+  for (const auto& entry : fs::directory_iterator(temporary.File("a"))) {
     INFO(entry.path().filename());
-    REQUIRE(Bytes(entry.path().string()) == Bytes(dir + "/b/" + entry.path().filename().string()));
+    REQUIRE(Bytes(entry.path().string()) == Bytes(temporary.path() + "/b/" + entry.path().filename().string()));
     ++files;
   }
   REQUIRE(files == ct.size.z());
-  fs::remove_all(dir);
 }
 
 TEST_CASE("dicom writer: deterministic UIDs are valid, stable and distinct; bad information is refused", "[unit]") {
@@ -124,11 +122,10 @@ TEST_CASE("dicom writer: deterministic UIDs are valid, stable and distinct; bad 
   REQUIRE_THAT(info.Validate(), Catch::Matchers::Contains("series UID"));
   info = testing::PhaseInfo("refused", 3, 2);
   REQUIRE_THAT(info.Validate(), Catch::Matchers::Contains("temporal position"));
-  const std::string dir = testing::FreshTempDir("dicom_refused");
-  REQUIRE_THROWS_WITH(WriteDicomSeries(testing::SmallCt(), dir, info),
-                      Catch::Matchers::Contains("invalid DICOM series information") &&
-                          Catch::Matchers::Contains("fix:"));
-  fs::remove_all(dir);
+  const testing::TemporaryFolder temporary("dg_ct_dicom_refused");
+  REQUIRE_THROWS_WITH(
+      WriteDicomSeries(testing::SmallCt(), temporary.path(), info),
+      Catch::Matchers::Contains("invalid DICOM series information") && Catch::Matchers::Contains("fix:"));
 }
 
 }  // namespace

@@ -2,17 +2,16 @@
 // field (which trilinear interpolation reproduces exactly) on an oblique grid.
 #include "io/ct/displacement_field.h"
 
-#include <filesystem>
 #include <fstream>
 
 #include <catch2/catch.hpp>
 
 #include "tests/io/ct/ct_fixtures.h"
+#include "tests/support/temporary_folder.h"
 
 namespace dg::io {
 namespace {
 
-namespace fs = std::filesystem;
 using Catch::Matchers::Contains;
 
 // u(X) = A X + b, mm, X in metres.
@@ -36,10 +35,10 @@ DisplacementField AffineField() {
 }
 
 TEST_CASE("displacement field: written and read back, the same grid and vectors, compressed or not", "[unit]") {
-  const std::string dir = testing::FreshTempDir("dvf");
+  const testing::TemporaryFolder temporary("dg_ct_dvf");
   const DisplacementField field = AffineField();
   for (bool compress : {true, false}) {
-    const std::string path = dir + (compress ? "/dvf.mha" : "/dvf_raw.mha");
+    const std::string path = temporary.path() + (compress ? "/dvf.mha" : "/dvf_raw.mha");
     WriteDisplacementField(path, field, compress);
     const DisplacementField back = ReadDisplacementField(path);
     REQUIRE(back.size == field.size);
@@ -49,12 +48,11 @@ TEST_CASE("displacement field: written and read back, the same grid and vectors,
     REQUIRE(back.u_mm == field.u_mm);
   }
   // MetaImage's header says what 3D Slicer and ITK read a displacement field by.
-  std::ifstream header(dir + "/dvf.mha");
+  std::ifstream header(temporary.File("dvf.mha"));
   std::string text((std::istreambuf_iterator<char>(header)), std::istreambuf_iterator<char>());
   text = text.substr(0, text.find("ElementDataFile"));
   REQUIRE_THAT(text, Contains("ElementNumberOfChannels = 3") && Contains("ElementType = MET_FLOAT") &&
                          Contains("CompressedData = True"));
-  fs::remove_all(dir);
 }
 
 TEST_CASE("displacement field: trilinear sampling reproduces an affine field anywhere inside the grid", "[unit]") {

@@ -4,7 +4,6 @@
 // displacements of scan.h5.
 #include <cmath>
 #include <cstdio>
-#include <filesystem>
 #include <fstream>
 #include <iterator>
 #include <set>
@@ -18,6 +17,7 @@
 #include "io/metaimage.h"
 #include "tests/io/ct/ct_fixtures.h"
 #include "tests/io/ct/pydicom_facts.h"
+#include "tests/support/temporary_folder.h"
 #include "tests/support/tiny_phantom.h"
 #include "tools/phantom/phantom_spec.h"
 #include "tools/phantom/scene_file.h"
@@ -25,7 +25,6 @@
 namespace dg::io {
 namespace {
 
-namespace fs = std::filesystem;
 using Catch::Matchers::Contains;
 using Catch::Matchers::WithinAbs;
 
@@ -144,13 +143,13 @@ TEST_CASE("phantom ct: the truth displacement fields sampled at the mesh nodes g
 }
 
 TEST_CASE("phantom: scene.yaml names the MetaImages when they are written, and says where the DICOM is", "[unit]") {
-  const std::string dir = testing::FreshTempDir("scene_file");
+  const testing::TemporaryFolder temporary("dg_ct_scene_file");
   for (const std::string format : {"mhd", "dicom", "both"}) {
     tools::phantom::PhantomSpec spec = tools::phantom::PresetSpec("tiny");
     spec.ct_format = format;
     REQUIRE(spec.Validate().empty());
-    tools::phantom::WriteSceneFile(dir + "/scene.yaml", spec, 30, 0.666);
-    std::ifstream in(dir + "/scene.yaml");
+    tools::phantom::WriteSceneFile(temporary.File("scene.yaml"), spec, 30, 0.666);
+    std::ifstream in(temporary.File("scene.yaml"));
     const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
     INFO(format << ":\n" << text);
     REQUIRE((text.find("  ct: ct/phase_%02d.mhd") != std::string::npos) == (format != "dicom"));
@@ -159,7 +158,6 @@ TEST_CASE("phantom: scene.yaml names the MetaImages when they are written, and s
   tools::phantom::PhantomSpec spec = tools::phantom::PresetSpec("tiny");
   spec.ct_format = "png";
   REQUIRE_THAT(spec.Validate(), Contains("--ct-format"));
-  fs::remove_all(dir);
 }
 
 }  // namespace

@@ -1,7 +1,6 @@
 // The tracking front end on the phantom, against its exact ground truth:
 // triangulated depth, temporal drift and fiducial positions.
 #include <algorithm>
-#include <filesystem>
 #include <map>
 
 #include <Eigen/Dense>
@@ -14,6 +13,7 @@
 #include "stages/track/fiducial_tracker.h"
 #include "stages/track/marker_finder.h"
 #include "tests/stages/track/rectified_phantom.h"
+#include "tests/support/temporary_folder.h"
 
 namespace dg::stages {
 namespace {
@@ -100,13 +100,14 @@ struct TrackingRun {
 
 TrackingRun Run() {
   TrackingRun r;
-  const std::string dir = testing::GeneratePhantomScene("track", kDurationS);
+  const dg::testing::TemporaryFolder folder("dg_track_test");
+  const std::string& dir = folder.path();
+  testing::GeneratePhantomScene(kDurationS, dir);
   r.scene = testing::LoadRectified(dir);
   r.truth = testing::ReadTruth(dir, "/surface_points");
   r.fiducials = testing::ReadTruth(dir, "/fiducials");
   cv::VideoCapture video(dir + "/video/left.avi");
   REQUIRE(video.read(r.first_left_bgr));
-  std::filesystem::remove_all(dir);
   FeatureTracker::Options options;
   options.stereo = PhantomStereoOptions(Triangulator(r.scene.calibration));
   FeatureTracker tracker(options, r.scene.calibration);

@@ -1,9 +1,5 @@
 #include "tests/stages/track/rectified_phantom.h"
 
-#include <filesystem>
-
-#include <unistd.h>
-
 #include <Eigen/Core>
 #include <catch2/catch.hpp>
 #include <opencv2/calib3d.hpp>
@@ -17,8 +13,6 @@
 
 namespace dg::stages::testing {
 namespace {
-
-namespace fs = std::filesystem;
 
 std::vector<cv::Mat> ReadGrey(const std::string& path, const cv::Mat& map_x, const cv::Mat& map_y) {
   cv::VideoCapture capture(path);
@@ -35,15 +29,10 @@ std::vector<cv::Mat> ReadGrey(const std::string& path, const cv::Mat& map_x, con
 
 }  // namespace
 
-std::string GeneratePhantomScene(const std::string& name, double duration_s) {
-  // One folder per process: test processes run concurrently (ctest -j).
-  const std::string dir =
-      (fs::temp_directory_path() / ("dg_track_test_" + name + "_" + std::to_string(::getpid()))).string();
-  fs::remove_all(dir);
+void GeneratePhantomScene(double duration_s, const std::string& dir) {
   tools::phantom::PhantomSpec spec = tools::phantom::PresetSpec("default");
   spec.duration_s = duration_s;
   tools::phantom::GeneratePhantom(spec, dir, false);
-  return dir;
 }
 
 void AddRectification(io::StereoCalibration* calibration) {

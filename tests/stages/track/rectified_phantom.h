@@ -21,9 +21,8 @@ struct RectifiedPhantom {
 // zero disparity at infinity).
 void AddRectification(io::StereoCalibration* calibration);
 
-// Generates the default phantom of `duration_s` into a temporary folder
-// named after `name` and the process, and returns the folder.
-std::string GeneratePhantomScene(const std::string& name, double duration_s);
+// Generates the default phantom of `duration_s` into the folder `dir`.
+void GeneratePhantomScene(double duration_s, const std::string& dir);
 
 RectifiedPhantom LoadRectified(const std::string& scene_dir);
 
