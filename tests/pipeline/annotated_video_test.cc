@@ -2,19 +2,16 @@
 // queue of two, and the file holds them all; adding after Close() is refused.
 #include "pipeline/annotated_video.h"
 
-#include <filesystem>
-
-#include <unistd.h>
-
 #include <catch2/catch.hpp>
+
+#include "tests/support/temporary_folder.h"
 
 namespace dg::pipeline {
 namespace {
 
 TEST_CASE("annotated video: offline, every frame reaches the file", "[pipeline][unit]") {
-  const std::string path = (std::filesystem::temp_directory_path() /
-                            ("dg_annotated_" + std::to_string(::getpid()) + ".avi"))
-                               .string();
+  const testing::TemporaryFolder folder("dg_annotated");
+  const std::string path = folder.File("annotated.avi");
   constexpr int kFrames = 25;
   {
     AnnotatedVideo video(path, 30, {64, 48}, VideoLayout::kLeft, Policy::kOffline, 2);
@@ -36,7 +33,6 @@ TEST_CASE("annotated video: offline, every frame reaches the file", "[pipeline][
   int frames = 0;
   for (cv::Mat frame; reader.read(frame);) ++frames;
   REQUIRE(frames == kFrames);
-  std::filesystem::remove(path);
 }
 
 }  // namespace

@@ -10,8 +10,6 @@
 #include <fstream>
 #include <new>
 
-#include <unistd.h>
-
 #include <catch2/catch.hpp>
 #include <opencv2/core.hpp>
 #include <tbb/global_control.h>
@@ -21,6 +19,7 @@
 #include "io/registration_file.h"
 #include "io/scene.h"
 #include "pipeline/scene_graph.h"
+#include "tests/support/temporary_folder.h"
 #include "tools/phantom/phantom_generator.h"
 #include "tools/phantom/phantom_spec.h"
 
@@ -106,11 +105,9 @@ class CountingSink final : public GraphSink {
   const CountingMatAllocator& mats_;
 };
 
-// A tiny phantom two seconds long, with the truth's registration, so the
-// simulation and the overlays run from the first frame.
-std::string SceneRegisteredByTruth() {
-  const fs::path dir = fs::temp_directory_path() / ("dg_allocation_phantom_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
+// A tiny phantom two seconds long, generated into `dir`, with the truth's
+// registration, so the simulation and the overlays run from the first frame.
+std::string SceneRegisteredByTruth(const fs::path& dir) {
   tools::phantom::PhantomSpec spec = tools::phantom::PresetSpec("tiny");
   spec.duration_s = 2;
   tools::phantom::GeneratePhantom(spec, dir.string(), false);
@@ -148,7 +145,8 @@ WindowCounts CountWindow(const CountingSink& sink, size_t from) {
 }
 
 TEST_CASE("steady state: a frame allocates no frame-sized image in the whole graph", "[integration]") {
-  const io::Scene scene = io::ReadScene(SceneRegisteredByTruth());
+  const testing::TemporaryFolder folder("dg_allocation_phantom");
+  const io::Scene scene = io::ReadScene(SceneRegisteredByTruth(folder.path()));
   FrontEndSettings front_end;
   // The default target scaled to the tiny image's area (160x120 against
   // 640x480): a target the image cannot hold would detect in every frame,

@@ -5,9 +5,6 @@
 
 #include <algorithm>
 #include <cstdio>
-#include <unistd.h>
-
-#include <filesystem>
 #include <functional>
 #include <span>
 
@@ -19,25 +16,22 @@
 #include "sim/error.h"
 #include "sim/statistics.h"
 #include "stages/constraints/constraint_mapper.h"
+#include "tests/support/temporary_folder.h"
 #include "tools/phantom/phantom_generator.h"
 
 namespace dg::stages {
 namespace {
 
-namespace fs = std::filesystem;
 using Catch::Matchers::Contains;
 
 // The tiny preset, 1.4 s (two cycles at 90 bpm): one scene shared by the tests below.
 const std::string& TinyScene() {
+  static const testing::TemporaryFolder folder("dg_fem_stage_test_tiny");
   static const std::string dir = [] {
-    // One folder per process: the test cases run as concurrent processes.
-    const std::string out =
-        (fs::temp_directory_path() / ("dg_fem_stage_test_tiny_" + std::to_string(::getpid()))).string();
-    fs::remove_all(out);
     tools::phantom::PhantomSpec spec = tools::phantom::PresetSpec("tiny");
     spec.duration_s = 1.4;
-    tools::phantom::GeneratePhantom(spec, out, false);
-    return out;
+    tools::phantom::GeneratePhantom(spec, folder.path(), false);
+    return folder.path();
   }();
   return dir;
 }

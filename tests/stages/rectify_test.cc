@@ -1,8 +1,6 @@
 // RectifyStage on the tiny phantom with its true calibration: true point
 // pairs land on one rectified row, agree with OpenCV's own point
 // rectification, and give the true depth from their disparity.
-#include <filesystem>
-
 #include <catch2/catch.hpp>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/videoio.hpp>
@@ -12,17 +10,17 @@
 #include "sim/error.h"
 #include "sim/statistics.h"
 #include "stages/rectify.h"
+#include "tests/support/temporary_folder.h"
 #include "tools/phantom/phantom_generator.h"
 
 namespace dg::stages {
 namespace {
 
-namespace fs = std::filesystem;
 using Eye = RectifyStage::Eye;
 
 TEST_CASE("rectify: true point pairs share a rectified row on the phantom", "[stages][integration]") {
-  const std::string dir = (fs::temp_directory_path() / "dg_rectify_test_tiny").string();
-  fs::remove_all(dir);
+  const testing::TemporaryFolder folder("dg_rectify_test_tiny");
+  const std::string& dir = folder.path();
   tools::phantom::GeneratePhantom(tools::phantom::PresetSpec("tiny"), dir, false);
   const io::StereoCalibration calibration = io::ReadStereoCalibration(dir + "/calibration.yaml");
   const RectifyStage stage({}, calibration);

@@ -14,6 +14,7 @@
 #include <opencv2/core.hpp>
 
 #include "sim/error.h"
+#include "tests/support/temporary_folder.h"
 #include "tools/commands.h"
 
 namespace dg::tools {
@@ -40,10 +41,8 @@ double JsonNumber(const std::string& json, const std::string& key) {
 }
 
 TEST_CASE("calibrate command: OpenCV's chessboard pairs to YAML and JSON", "[tools][integration]") {
-  const fs::path dir = fs::temp_directory_path() / "dg_calibrate_command_test";
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  const std::string yaml = (dir / "calib.yaml").string(), json = (dir / "calib.json").string();
+  const testing::TemporaryFolder folder("dg_calibrate_command_test");
+  const std::string yaml = folder.File("calib.yaml"), json = folder.File("calib.json");
   RunCommand({"calibrate", "--left", kSamples + "left??.jpg", "--right", kSamples + "right??.jpg", "--board", "9x6",
               "--square", "0.025", "--out", yaml, "--json", json});
 
@@ -87,7 +86,8 @@ TEST_CASE("calibrate command: OpenCV's chessboard pairs to YAML and JSON", "[too
 }
 
 TEST_CASE("calibrate command: a malformed board and missing images are errors", "[tools][unit]") {
-  const std::string out = (fs::temp_directory_path() / "dg_calibrate_command_never.yaml").string();
+  const testing::TemporaryFolder folder("dg_calibrate_command_never");
+  const std::string out = folder.File("never.yaml");
   CHECK_THROWS_WITH(RunCommand({"calibrate", "--left", kSamples + "left??.jpg", "--right", kSamples + "right??.jpg",
                                 "--board", "9by6", "--square", "0.025", "--out", out}),
                     Catch::Contains("--board must be COLSxROWS"));

@@ -13,6 +13,7 @@
 #include "io/calibration.h"
 #include "io/h5_file.h"
 #include "stages/rectify.h"
+#include "tests/support/temporary_folder.h"
 #include "tools/calibrate/calibration_report.h"
 #include "tools/calibrate/stereo_calibration.h"
 #include "tools/calibrate/view_pairs.h"
@@ -26,8 +27,8 @@ namespace fs = std::filesystem;
 const std::string kSamples = "/usr/share/doc/opencv-doc/examples/data/";
 
 TEST_CASE("calibrate: the phantom's chessboards give its true cameras", "[tools][integration]") {
-  const std::string dir = (fs::temp_directory_path() / "dg_calibrate_test_default").string();
-  fs::remove_all(dir);
+  const dg::testing::TemporaryFolder folder("dg_calibrate_test_default");
+  const std::string& dir = folder.path();
   phantom::PhantomSpec spec = phantom::PresetSpec("default");
   spec.duration_s = 0.1;  // only the calibration images matter here
   phantom::GeneratePhantom(spec, dir, false);
@@ -75,9 +76,8 @@ TEST_CASE("calibrate: the phantom's chessboards give its true cameras", "[tools]
 }
 
 TEST_CASE("calibrate: OpenCV's real chessboard pairs, with a rejected view named", "[tools][integration]") {
-  const fs::path dir = fs::temp_directory_path() / "dg_calibrate_test_samples";
-  fs::remove_all(dir);
-  fs::create_directories(dir);
+  const dg::testing::TemporaryFolder folder("dg_calibrate_test_samples");
+  const fs::path dir = folder.path();
   std::vector<ViewPair> views = PairsFromPatterns(kSamples + "left??.jpg", kSamples + "right??.jpg");
   REQUIRE(views.size() == 13);  // left10/right10 are not shipped
   const std::string blank = (dir / "blank.png").string();

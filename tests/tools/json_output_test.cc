@@ -4,13 +4,13 @@
 // commit and the date.
 #include <cmath>
 #include <cstdlib>
-#include <filesystem>
 #include <fstream>
 #include <limits>
 
 #include <catch2/catch.hpp>
 #include <nlohmann/json.hpp>
 
+#include "tests/support/temporary_folder.h"
 #include "tools/bench/overlay_bench.h"
 #include "tools/eval/runtime_report.h"
 #include "tools/eval/runtime_sweep.h"
@@ -18,7 +18,6 @@
 namespace dg::tools {
 namespace {
 
-namespace fs = std::filesystem;
 using Json = nlohmann::ordered_json;
 
 Json ReadJson(const std::string& path) {
@@ -38,7 +37,8 @@ TEST_CASE("bench JSON: NaN and infinite figures are null, names stay, provenance
   timed.fps = std::numeric_limits<double>::infinity();
   OverlayBenchRecord odd = timed;
   odd.overlay = "bad \xff byte \"quoted\"";
-  const std::string path = (fs::temp_directory_path() / "dg_json_output_bench.json").string();
+  const dg::testing::TemporaryFolder folder("dg_json_output_bench");
+  const std::string path = folder.File("bench.json");
   WriteOverlayBenchJson(path, {timed, odd});
 
   const Json records = ReadJson(path);
@@ -61,7 +61,6 @@ TEST_CASE("bench JSON: NaN and infinite figures are null, names stay, provenance
   const std::string check = "/usr/bin/python3 -c 'import json, sys; r = json.load(open(sys.argv[1])); "
                             "sys.exit(0 if r[0][\"ms_p95\"] is None and r[0][\"commit\"] else 1)' " + path;
   CHECK(std::system(check.c_str()) == 0);
-  fs::remove(path);
 }
 
 TEST_CASE("eval runtime JSON: a NaN error is null; the file names its commit and date", "[tools][unit]") {
@@ -73,7 +72,8 @@ TEST_CASE("eval runtime JSON: a NaN error is null; the file names its commit and
   point.errors.internal_rms_mm = std::nan("");
   point.errors.surface_rms_mm = 0.125;
   result.points = {point};
-  const std::string path = (fs::temp_directory_path() / "dg_json_output_runtime.json").string();
+  const dg::testing::TemporaryFolder folder("dg_json_output_runtime");
+  const std::string path = folder.File("runtime.json");
   WriteRuntimeJson(result, path);
 
   const Json json = ReadJson(path);
@@ -86,7 +86,6 @@ TEST_CASE("eval runtime JSON: a NaN error is null; the file names its commit and
   CHECK(json["points"][0]["surface_rms_mm"].get<double>() == 0.125);
   CHECK(json["points"][0]["status"] == "ran");
   CHECK(json["points"][0]["recommended"] == false);
-  fs::remove(path);
 }
 
 }  // namespace

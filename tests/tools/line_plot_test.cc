@@ -1,10 +1,10 @@
 // The plots a person reads: what the y axis cannot show is marked and counted.
 #include "tools/report/line_plot.h"
 
-#include <filesystem>
-
 #include <catch2/catch.hpp>
 #include <opencv2/imgcodecs.hpp>
+
+#include "tests/support/temporary_folder.h"
 
 namespace dg::tools {
 namespace {
@@ -17,7 +17,8 @@ TEST_CASE("line plot: a point above the axis is marked at its x and counted", "[
   for (int x = 0; x <= 100; ++x) line.points.push_back({double(x), x == 50 ? 50.0 : 1.0});
   PlotOptions options;
   options.y_quantile = 0.99;
-  const std::string path = (std::filesystem::temp_directory_path() / "dg_line_plot_clipped.png").string();
+  const testing::TemporaryFolder folder("dg_line_plot");
+  const std::string path = folder.File("clipped.png");
   const PlotClipping clipping = WriteLinePlot({line}, options, path);
   CHECK(clipping.points_above == 1);
   CHECK(clipping.y_axis_max == Approx(1.1));
@@ -30,7 +31,6 @@ TEST_CASE("line plot: a point above the axis is marked at its x and counted", "[
 
   options.y_quantile = 1.0;  // the axis holds everything: nothing marked
   CHECK(WriteLinePlot({line}, options, path).points_above == 0);
-  std::filesystem::remove(path);
 }
 
 }  // namespace

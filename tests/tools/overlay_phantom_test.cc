@@ -2,8 +2,6 @@
 // phantom's true motion: embedded internal features project where the truth
 // does, the surface overlay error is far below a pixel, in the left eye and in
 // the right (a stereo run's), and each overlay mode writes a PNG.
-#include <filesystem>
-
 #include <catch2/catch.hpp>
 #include <opencv2/imgcodecs.hpp>
 
@@ -12,12 +10,12 @@
 #include "stages/overlay/overlay_error.h"
 #include "tools/overlay/overlay_snapshots.h"
 #include "tools/overlay/phantom_overlay_scene.h"
+#include "tests/support/temporary_folder.h"
 #include "tests/support/tiny_phantom.h"
 
 namespace dg::tools {
 namespace {
 
-namespace fs = std::filesystem;
 namespace overlay = stages::overlay;
 
 // The tiny preset, generated once per test process (processes run concurrently).
@@ -100,10 +98,10 @@ TEST_CASE("overlay on the phantom: the right eye puts features within 0.5 px, th
 // Written, readable, and drawn: each mode's picture differs from the plain frame.
 // (What it looks like is for a person to judge.)
 TEST_CASE("overlay on the phantom: each mode writes a PNG", "[tools][integration]") {
+  const dg::testing::TemporaryFolder folder("dg_overlay_test_png");
   OverlaySnapshotOptions options;
   options.scene = TinyScene();
-  options.out_dir = (fs::temp_directory_path() / "dg_overlay_test_png").string();
-  fs::remove_all(options.out_dir);
+  options.out_dir = folder.path();
   const OverlaySnapshotSummary summary = WriteOverlaySnapshots(options);
   REQUIRE(summary.files.size() == 8);
   const cv::Mat video = cv::imread(options.out_dir + "/video.png");

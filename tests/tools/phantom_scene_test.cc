@@ -20,6 +20,7 @@
 #include "io/h5_file.h"
 #include "io/metaimage.h"
 #include "io/scene.h"
+#include "tests/support/temporary_folder.h"
 #include "tools/phantom/phantom_generator.h"
 
 namespace dg::tools::phantom {
@@ -29,13 +30,12 @@ namespace fs = std::filesystem;
 
 // The default preset, half a second long: one scene shared by the tests below.
 const std::string& DefaultScene() {
+  static const testing::TemporaryFolder folder("dg_phantom_test_default");
   static const std::string dir = [] {
-    const std::string out = (fs::temp_directory_path() / "dg_phantom_test_default").string();
-    fs::remove_all(out);
     PhantomSpec spec = PresetSpec("default");
     spec.duration_s = 0.5;
-    GeneratePhantom(spec, out, false);
-    return out;
+    GeneratePhantom(spec, folder.path(), false);
+    return folder.path();
   }();
   return dir;
 }
@@ -363,8 +363,8 @@ std::map<std::string, std::string> ReadTree(const std::string& dir) {
 
 // The same seed writes the same bytes in every file; another seed changes the video and truth.
 TEST_CASE("phantom: deterministic from its seed", "[tools][integration]") {
-  const fs::path base = fs::temp_directory_path() / "dg_phantom_test_seed";
-  fs::remove_all(base);
+  const testing::TemporaryFolder folder("dg_phantom_test_seed");
+  const fs::path base = folder.path();
   PhantomSpec spec = PresetSpec("tiny");
   GeneratePhantom(spec, (base / "a").string(), false);
   GeneratePhantom(spec, (base / "b").string(), false);

@@ -10,6 +10,7 @@
 #include "io/h5_file.h"
 #include "io/scene.h"
 #include "sim/error.h"
+#include "tests/support/temporary_folder.h"
 #include "tests/support/tiny_phantom.h"
 #include "tools/preop/preop_bench.h"
 #include "tools/preop/preop_job.h"
@@ -39,8 +40,8 @@ PreopOptions TinyOptions(const std::string& out_dir) {
 }
 
 TEST_CASE("preop: the tiny phantom's DICOM CT to a scene whose motion matches the phantom's", "[integration]") {
-  const std::string out = (fs::temp_directory_path() / "dg_preop_test").string();
-  fs::remove_all(out);
+  const dg::testing::TemporaryFolder folder("dg_preop_test");
+  const std::string& out = folder.path();
   const PreopSummary summary = RunPreop(TinyOptions(out));
 
   REQUIRE(summary.phases == 10);
@@ -61,12 +62,11 @@ TEST_CASE("preop: the tiny phantom's DICOM CT to a scene whose motion matches th
   CHECK(errors.node_error_max_mm < 4.5);
   CHECK(errors.fiducial_deformed_mean_mm < 0.4);
   CHECK(errors.fiducial_found_mean_mm < 0.4);
-  fs::remove_all(out);
 }
 
 TEST_CASE("preop: a failed step leaves its report marked incomplete with the error", "[integration]") {
-  const std::string out = (fs::temp_directory_path() / "dg_preop_fail_test").string();
-  fs::remove_all(out);
+  const dg::testing::TemporaryFolder folder("dg_preop_fail_test");
+  const std::string& out = folder.path();
   PreopOptions options = TinyOptions(out);
   options.segmentation.organ_hu = {2500, 2600};  // between tissue and beads: nothing
   REQUIRE_THROWS_AS(RunPreop(options), Error);

@@ -6,12 +6,11 @@
 #include <cmath>
 #include <filesystem>
 
-#include <unistd.h>
-
 #include <catch2/catch.hpp>
 
 #include "io/h5_file.h"
 #include "pipeline/run_scene.h"
+#include "tests/support/temporary_folder.h"
 #include "tools/phantom/phantom_generator.h"
 
 namespace dg::tools {
@@ -33,8 +32,8 @@ double TruePhase(const io::H5Reader& truth, double t_s) {
 }
 
 TEST_CASE("run: the live phase follows an irregular beat better than the constant shift", "[tools][integration]") {
-  const fs::path dir = fs::temp_directory_path() / ("dg_run_phase_test_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
+  const testing::TemporaryFolder folder("dg_run_phase_test");
+  const fs::path dir = folder.path();
   // The default preset: at the tiny preset's 160x120 pixels and 10 scan
   // phases the estimate is ten times coarser (docs/phase.md).
   phantom::PhantomSpec spec = phantom::PresetSpec("default");
@@ -80,7 +79,6 @@ TEST_CASE("run: the live phase follows an irregular beat better than the constan
   CHECK(live_max <= 10.0);
   // The simulation's motion runs at the estimate, steered over a frame period.
   CHECK(simulated_sum / n <= 1.5 * live_sum / n);
-  fs::remove_all(dir);
 }
 
 }  // namespace

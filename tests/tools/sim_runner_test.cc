@@ -11,6 +11,7 @@
 
 #include "io/gmsh_mesher.h"
 #include "sim/error.h"
+#include "tests/support/temporary_folder.h"
 #include "tools/sim/builtin_problem.h"
 
 namespace dg::tools {
@@ -80,8 +81,8 @@ output_every_s: 0.005
 )";
   const io::SimProblem problem = io::ParseSimProblem(crush, "crush.yaml", ".");
   const sim::TetMesh mesh = io::LoadProblemMesh(problem.mesh);
-  const std::string out = (std::filesystem::temp_directory_path() / "dg_sim_runner_crush").string();
-  std::filesystem::remove_all(out);
+  const testing::TemporaryFolder folder("dg_sim_runner_crush");
+  const std::string& out = folder.path();
   SimRunOptions options;
   options.out_dir = out;
   options.progress = false;
@@ -123,8 +124,8 @@ TEST_CASE("sim runner: unchecked above the stability limit, nothing non-finite i
   problem.solver.dt_s = 4e-3;  // the 20k box's safe step is 0.39 ms
   problem.output_every_s = 4e-3;
   const sim::TetMesh mesh = io::LoadProblemMesh(problem.mesh);
-  const std::string out = (std::filesystem::temp_directory_path() / "dg_sim_runner_unchecked").string();
-  std::filesystem::remove_all(out);
+  const testing::TemporaryFolder folder("dg_sim_runner_unchecked");
+  const std::string& out = folder.path();
   SimRunOptions options;
   options.out_dir = out;
   options.progress = false;

@@ -1,7 +1,6 @@
 // The phantom's uncompressed AVI read back by FFmpeg through OpenCV, and by
 // the capture stage: every byte as written, the frame count and rate as stated.
 #include <cstdint>
-#include <filesystem>
 #include <fstream>
 
 #include <catch2/catch.hpp>
@@ -10,12 +9,11 @@
 
 #include "sim/error.h"
 #include "stages/capture.h"
+#include "tests/support/temporary_folder.h"
 #include "tools/phantom/uncompressed_avi.h"
 
 namespace dg::tools::phantom {
 namespace {
-
-namespace fs = std::filesystem;
 
 std::vector<cv::Mat> RandomFrames(int count, cv::Size size, std::uint64_t seed = 7) {
   cv::RNG rng(seed);
@@ -27,8 +25,8 @@ std::vector<cv::Mat> RandomFrames(int count, cv::Size size, std::uint64_t seed =
   return frames;
 }
 
-std::string Written(const std::string& name, const std::vector<cv::Mat>& frames, double fps) {
-  const std::string path = (fs::temp_directory_path() / name).string();
+// `frames` written to `path`; returns the path.
+std::string Written(const std::string& path, const std::vector<cv::Mat>& frames, double fps) {
   UncompressedAviWriter writer(path, frames[0].size(), fps);
   for (const cv::Mat& frame : frames) writer.Write(frame);
   writer.Close();
@@ -36,10 +34,11 @@ std::string Written(const std::string& name, const std::vector<cv::Mat>& frames,
 }
 
 TEST_CASE("uncompressed AVI: FFmpeg reads back every byte, the count and the rate", "[unit]") {
+  const testing::TemporaryFolder folder("dg_uncompressed_avi_test");
   // 161 px rows (483 bytes) need padding to 4 bytes; 29.97 fps is a fractional rate.
   for (const auto& [size, fps] : {std::pair{cv::Size(160, 120), 30.0}, std::pair{cv::Size(161, 75), 29.97}}) {
     const std::vector<cv::Mat> frames = RandomFrames(7, size);
-    const std::string path = Written("dg_uncompressed_avi_test.avi", frames, fps);
+    const std::string path = Written(folder.File("test.avi"), frames, fps);
     cv::VideoCapture capture(path, cv::CAP_FFMPEG);
     REQUIRE(capture.isOpened());
     CHECK(capture.get(cv::CAP_PROP_FRAME_COUNT) == 7);
@@ -55,10 +54,11 @@ TEST_CASE("uncompressed AVI: FFmpeg reads back every byte, the count and the rat
 }
 
 TEST_CASE("uncompressed AVI: the capture stage reads a stereo pair with container times", "[unit]") {
+  const testing::TemporaryFolder folder("dg_uncompressed_stereo");
   const std::vector<cv::Mat> left = RandomFrames(4, {64, 48}), right = RandomFrames(4, {64, 48}, 8);
   stages::CaptureStage::Options options;
-  options.left_path = Written("dg_uncompressed_left.avi", left, 25);
-  options.right_path = Written("dg_uncompressed_right.avi", right, 25);
+  options.left_path = Written(folder.File("left.avi"), left, 25);
+  options.right_path = Written(folder.File("right.avi"), right, 25);
   stages::CaptureStage capture(options);
   REQUIRE(capture.frame_count() == 4);
   for (int i = 0; i < 4; ++i) {
@@ -72,7 +72,8 @@ TEST_CASE("uncompressed AVI: the capture stage reads a stereo pair with containe
 }
 
 TEST_CASE("uncompressed AVI: a frame of another size is refused, naming the frame", "[unit]") {
-  const std::string path = (fs::temp_directory_path() / "dg_uncompressed_bad.avi").string();
+  const testing::TemporaryFolder folder("dg_uncompressed_bad");
+  const std::string path = folder.File("bad.avi");
   UncompressedAviWriter writer(path, {32, 24}, 30);
   writer.Write(cv::Mat(24, 32, CV_8UC3, cv::Scalar::all(9)));
   CHECK_THROWS_WITH(writer.Write(cv::Mat(24, 30, CV_8UC3)), Catch::Contains("frame 1"));

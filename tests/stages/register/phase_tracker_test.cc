@@ -5,10 +5,7 @@
 // The constant-shift baseline is the best single shift over the
 // registration window (two cycles), the most a registration can give.
 #include <cmath>
-#include <filesystem>
 #include <random>
-
-#include <unistd.h>
 
 #include <catch2/catch.hpp>
 
@@ -18,12 +15,11 @@
 #include "stages/rectify.h"
 #include "stages/register/fiducial_motion.h"
 #include "stages/register/phase_tracker.h"
+#include "tests/support/temporary_folder.h"
 #include "tools/phantom/phantom_generator.h"
 
 namespace dg::stages {
 namespace {
-
-namespace fs = std::filesystem;
 
 constexpr double kNoisePx = 0.3;  // the fiducial tracker's error on the default phantom: 0.1-0.3 px
 constexpr double kWindowCycles = 2;
@@ -45,11 +41,9 @@ Truth MakePhantom(double period_variation, double amplitude_variation, std::uint
   spec.seed = seed;
   spec.period_variation = period_variation;
   spec.amplitude_variation = amplitude_variation;
-  const fs::path dir = fs::temp_directory_path() / ("dg_phase_test_" + std::to_string(::getpid()) + "_" +
-                                                    std::to_string(seed) + "_" + std::to_string(period_variation));
-  fs::remove_all(dir);
-  tools::phantom::GeneratePhantom(spec, dir.string(), false);
-  const io::Scene scene = io::ReadScene((dir / "scene.yaml").string());
+  const testing::TemporaryFolder folder("dg_phase_test");
+  tools::phantom::GeneratePhantom(spec, folder.path(), false);
+  const io::Scene scene = io::ReadScene(folder.File("scene.yaml"));
   Truth truth;
   truth.scan = ReadFiducialMotion(scene.preoperative->motion);
   truth.calibration = io::ReadStereoCalibration(scene.calibration);
@@ -63,7 +57,6 @@ Truth MakePhantom(double period_variation, double amplitude_variation, std::uint
   truth.starts_s = file.Read<double>("/cycles/start_s", &shape);
   truth.periods_s = file.Read<double>("/cycles/period_s", &shape);
   truth.xyz_C_m = file.Read<double>("/fiducials/xyz_C_m", &truth.xyz_shape);
-  fs::remove_all(dir);
   return truth;
 }
 

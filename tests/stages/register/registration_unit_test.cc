@@ -4,7 +4,6 @@
 // covariance against the spread over noise seeds, bead centroids of spheres
 // of known centre, the YAML file's round trip, and every bad-input error.
 #include <cmath>
-#include <filesystem>
 #include <fstream>
 #include <random>
 
@@ -20,6 +19,7 @@
 #include "stages/register/registration_stage.h"
 #include "stages/register/reprojection_residual.h"
 #include "tests/stages/register/synthetic_registration.h"
+#include "tests/support/temporary_folder.h"
 
 // Ceres brings glog, whose CHECK would abort where Catch's reports: Catch's wins.
 #undef CHECK
@@ -244,8 +244,8 @@ TEST_CASE("register: bead centroids find sphere centres in a noisy volume", "[re
 }
 
 TEST_CASE("register: the registration file round-trips and refuses a non-rigid T_C_S", "[register][unit]") {
-  namespace fs = std::filesystem;
-  const std::string path = (fs::temp_directory_path() / "dg_registration_unit.yaml").string();
+  const testing::TemporaryFolder folder("dg_registration_unit");
+  const std::string path = folder.File("registration.yaml");
   io::Registration r;
   r.T_C_S = TruePose().matrix();
   r.phase_shift_s = 0.2345678901234;
@@ -271,7 +271,6 @@ TEST_CASE("register: the registration file round-trips and refuses a non-rigid T
   text.replace(row, text.find('\n', row) - row, "  - [2, 0, 0, 0]");  // the first row gains a scale
   std::ofstream(path) << text;
   CHECK_THROWS_WITH(io::ReadRegistrationYaml(path), Contains("not a rigid transform"));
-  fs::remove(path);
 }
 
 }  // namespace
