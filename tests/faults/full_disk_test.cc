@@ -15,7 +15,6 @@
 #include <algorithm>
 #include <cstdint>
 #include <filesystem>
-#include <fstream>
 #include <string>
 #include <thread>
 #include <vector>
@@ -29,6 +28,7 @@
 #include "tests/io/xml_well_formed.h"
 #include "tests/support/h5_plain.h"
 #include "tests/support/temporary_folder.h"
+#include "tests/support/text_file.h"
 #include "tools/phantom/phantom_generator.h"
 #include "tools/phantom/phantom_spec.h"
 
@@ -38,10 +38,7 @@ namespace {
 namespace fs = std::filesystem;
 using namespace dg::testing::h5_plain;
 
-std::string ReadText(const std::string& path) {
-  std::ifstream in(path);
-  return {std::istreambuf_iterator<char>(in), {}};
-}
+using testing::ReadText;
 
 // In a child process, the files written may not grow past `limit_bytes`.
 void LimitFileSize(rlim_t limit_bytes) {

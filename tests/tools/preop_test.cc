@@ -1,8 +1,6 @@
 // `dynaguide preop` end to end on the tiny phantom's DICOM 4D CT, against the
 // phantom's exact motion (truth/dvf_phase_NN.mha, its scan's fiducials).
 #include <filesystem>
-#include <fstream>
-#include <sstream>
 
 #include <catch2/catch.hpp>
 
@@ -11,6 +9,7 @@
 #include "io/scene.h"
 #include "sim/error.h"
 #include "tests/support/temporary_folder.h"
+#include "tests/support/text_file.h"
 #include "tests/support/tiny_phantom.h"
 #include "tools/preop/preop_bench.h"
 #include "tools/preop/preop_job.h"
@@ -21,12 +20,7 @@ namespace {
 namespace fs = std::filesystem;
 using Catch::Matchers::Contains;
 
-std::string ReadText(const std::string& path) {
-  std::ifstream file(path);
-  std::stringstream text;
-  text << file.rdbuf();
-  return text.str();
-}
+using testing::ReadText;
 
 PreopOptions TinyOptions(const std::string& out_dir) {
   const fs::path phantom = testing::TinyPhantomDir();

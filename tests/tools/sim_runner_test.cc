@@ -3,8 +3,6 @@
 #include <cmath>
 #include <filesystem>
 #include <vector>
-#include <fstream>
-#include <sstream>
 
 #include <catch2/catch.hpp>
 #include <hdf5.h>
@@ -12,17 +10,13 @@
 #include "io/gmsh_mesher.h"
 #include "sim/error.h"
 #include "tests/support/temporary_folder.h"
+#include "tests/support/text_file.h"
 #include "tools/sim/builtin_problem.h"
 
 namespace dg::tools {
 namespace {
 
-std::string ReadText(const std::string& path) {
-  std::ifstream file(path);
-  std::stringstream text;
-  text << file.rdbuf();
-  return text.str();
-}
+using testing::ReadText;
 
 // The root attribute "complete" of an HDF5 file, read through the HDF5 C API.
 int CompleteAttribute(const std::string& path) {
