@@ -73,6 +73,9 @@ void AddPreopCommand(CLI::App& app) {
   command->add_option("--grid-mm", o.motion.grid_spacing_mm, "B-spline control-point spacing at the finest level, mm")
       ->capture_default_str();
   command->add_option("--levels", o.motion.levels, "B-spline registration levels, coarse to fine")->capture_default_str();
+  command->add_option("--bending-weight", o.motion.bending_weight,
+                      "B-spline bending penalty, HU^2 per mm^2 of the control points' mean squared second difference")
+      ->capture_default_str();
   command->add_option("--annotation", o.annotation,
                       "An image laid on the organ's surface for the texture overlay (projected along z)");
   command->add_option("--threads", args->threads, "Worker threads (default: all cores)")->check(CLI::PositiveNumber);
