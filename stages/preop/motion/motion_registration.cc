@@ -3,7 +3,9 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <memory>
 #include <sstream>
+#include <vector>
 
 // ITK 5.2 brings its own Eigen 3.3 and includes its Eigenvalues module under
 // the same include guards: the project's Eigen 3.4 (our header included its
@@ -11,7 +13,7 @@
 #include <Eigen/Eigenvalues>
 #include <ceres/gradient_problem.h>
 #include <ceres/gradient_problem_solver.h>
-#include <itkBSplineInterpolateImageFunction.h>
+#include <itkBSplineDecompositionImageFilter.h>
 #include <itkBSplineTransform.h>
 #include <itkBSplineTransformInitializer.h>
 #include <itkBSplineTransformParametersAdaptor.h>
@@ -63,14 +65,115 @@ Image::Pointer ToItkImage(const io::CtImage& ct) {
   return image;
 }
 
+// The uniform cubic B-spline's four weights at t in [0, 1) (the basis
+// functions of the knot intervals left to right), and their derivatives.
+void CubicWeights(double t, double weights[4]) {
+  const double s = 1 - t, t2 = t * t, t3 = t2 * t;
+  weights[0] = s * s * s / 6;
+  weights[1] = (3 * t3 - 6 * t2 + 4) / 6;
+  weights[2] = (-3 * t3 + 3 * t2 + 3 * t + 1) / 6;
+  weights[3] = t3 / 6;
+}
+void CubicDerivativeWeights(double t, double weights[4]) {
+  const double s = 1 - t;
+  weights[0] = -s * s / 2;
+  weights[1] = (3 * t * t - 4 * t) / 2;
+  weights[2] = (-3 * t * t + 2 * t + 1) / 2;
+  weights[3] = t * t / 2;
+}
+
+// Index i mirrored into [0, n - 1] about the end samples (ITK's boundary
+// condition for B-spline interpolation). @pre n >= 2 and |i| < 2 n - 2.
+long Mirrored(long i, long n) {
+  if (i < 0) return -i;
+  if (i > n - 1) return 2 * (n - 1) - i;
+  return i;
+}
+
+// The moving image as a cubic B-spline interpolant (ITK's prefilter makes the
+// coefficients, so the function is ITK's BSplineInterpolateImageFunction's),
+// evaluated with its gradient by a plain tensor-product loop: ITK's evaluator
+// recomputes its weight tables through generic containers at every call, and
+// took 40% of a registration.
+class CubicInterpolant {
+ public:
+  explicit CubicInterpolant(const Image::Pointer& image) {
+    using Decomposition = itk::BSplineDecompositionImageFilter<Image, itk::Image<double, kDim>>;
+    const Decomposition::Pointer decomposition = Decomposition::New();
+    decomposition->SetSplineOrder(3);
+    decomposition->SetInput(image);
+    decomposition->SetNumberOfWorkUnits(1);
+    decomposition->Update();
+    const auto& coefficients = decomposition->GetOutput();
+    coefficients_.assign(coefficients->GetBufferPointer(),
+                         coefficients->GetBufferPointer() + coefficients->GetBufferedRegion().GetNumberOfPixels());
+    Eigen::Matrix3d direction, spacing = Eigen::Matrix3d::Zero();
+    for (unsigned d = 0; d < kDim; ++d) {
+      size_[d] = static_cast<long>(image->GetBufferedRegion().GetSize(d));
+      origin_[d] = image->GetOrigin()[d];
+      spacing(d, d) = image->GetSpacing()[d];
+      for (unsigned e = 0; e < kDim; ++e) direction(d, e) = image->GetDirection()(d, e);
+    }
+    to_index_ = (direction * spacing).inverse();
+    gradient_to_physical_ = direction * spacing.inverse();
+  }
+
+  // Value and physical gradient at the physical point x; false where x is
+  // more than half a voxel beyond the outer voxels' centres (ITK's
+  // IsInsideBuffer), where the moving image is not compared.
+  bool Evaluate(const Eigen::Vector3d& x, double* value, Eigen::Vector3d* gradient) const {
+    const Eigen::Vector3d index = to_index_ * (x - origin_);
+    long first[kDim];
+    double w[kDim][4], dw[kDim][4];
+    for (unsigned d = 0; d < kDim; ++d) {
+      if (!(index[d] >= -0.5 && index[d] < size_[d] - 0.5)) return false;
+      const double floor = std::floor(index[d]);
+      first[d] = static_cast<long>(floor) - 1;
+      CubicWeights(index[d] - floor, w[d]);
+      CubicDerivativeWeights(index[d] - floor, dw[d]);
+    }
+    double sum = 0;
+    Eigen::Vector3d along_index = Eigen::Vector3d::Zero();
+    for (int c = 0; c < 4; ++c) {
+      const long k = Mirrored(first[2] + c, size_[2]);
+      for (int b = 0; b < 4; ++b) {
+        const long j = Mirrored(first[1] + b, size_[1]);
+        const double* row = &coefficients_[size_[0] * (j + size_[1] * k)];
+        double v = 0, dv = 0;
+        for (int a = 0; a < 4; ++a) {
+          const double coefficient = row[Mirrored(first[0] + a, size_[0])];
+          v += w[0][a] * coefficient;
+          dv += dw[0][a] * coefficient;
+        }
+        sum += w[2][c] * w[1][b] * v;
+        along_index[0] += w[2][c] * w[1][b] * dv;
+        along_index[1] += w[2][c] * dw[1][b] * v;
+        along_index[2] += dw[2][c] * w[1][b] * v;
+      }
+    }
+    *value = sum;
+    *gradient = gradient_to_physical_ * along_index;
+    return true;
+  }
+
+ private:
+  std::vector<double> coefficients_;
+  long size_[kDim];
+  Eigen::Vector3d origin_;
+  Eigen::Matrix3d to_index_, gradient_to_physical_;
+};
+
 // The mean squared HU difference between the fixed image's voxels and the
 // moving image through the B-spline, with its gradient over the spline's
 // coefficients. ITK's own mean-squares metrics (both generations) form the
 // dense 3 x P Jacobian of the transform at every sample, O(P) per sample; a
 // sample only moves with the 4^3 control points around it, and this visits
-// only those (as ITK's Mattes metric does for mutual information). The moving
-// image is a cubic B-spline interpolant, so value and gradient agree and the
-// line searches see a smooth function.
+// only those (as ITK's Mattes metric does for mutual information). A sample's
+// control points and their weights depend on its fixed position only, so
+// they are found once per level (checked against ITK's transform), and each
+// evaluation is two tensor-product loops. The moving image is a cubic
+// B-spline interpolant, so value and gradient agree and the line searches see
+// a smooth function.
 class SparseMeanSquares final : public itk::SingleValuedCostFunction {
  public:
   using Self = SparseMeanSquares;
@@ -82,17 +185,33 @@ class SparseMeanSquares final : public itk::SingleValuedCostFunction {
                   double bending_weight) {
     transform_ = transform;
     bending_weight_ = bending_weight;
-    interpolator_ = Interpolator::New();
-    interpolator_->SetSplineOrder(3);
-    interpolator_->SetNumberOfWorkUnits(1);
-    interpolator_->SetInputImage(moving);
-    samples_X_.clear();
-    fixed_values_.clear();
+    moving_ = std::make_unique<CubicInterpolant>(moving);
+    const BSpline::ImagePointer grid = transform->GetCoefficientImages()[0];
+    for (unsigned d = 0; d < kDim; ++d) grid_size_[d] = static_cast<long>(grid->GetBufferedRegion().GetSize(d));
+    samples_.clear();
+    BSpline::WeightsType itk_weights(transform->GetNumberOfWeights());
+    BSpline::ParameterIndexArrayType itk_indices(transform->GetNumberOfWeights());
     for (itk::ImageRegionConstIteratorWithIndex<Image> it(fixed, fixed->GetBufferedRegion()); !it.IsAtEnd(); ++it) {
       Image::PointType X;
       fixed->TransformIndexToPhysicalPoint(it.GetIndex(), X);
-      samples_X_.push_back(X);
-      fixed_values_.push_back(it.Get());
+      BSpline::OutputPointType unused;
+      bool inside = false;
+      transform->TransformPoint(X, unused, itk_weights, itk_indices, inside);
+      if (!inside) continue;  // outside the spline's domain: no motion defined there, not compared
+      Sample sample;
+      sample.X = Eigen::Vector3d(X[0], X[1], X[2]);
+      sample.fixed_value = it.Get();
+      // The support starts where ITK's transform starts it: at a sample on a
+      // knot, rounding may put it one interval either side, where the extra
+      // weight is zero either way.
+      itk::ContinuousIndex<double, kDim> at;
+      grid->TransformPhysicalPointToContinuousIndex(X, at);
+      sample.first = static_cast<long>(itk_indices[0]);
+      const long first[kDim] = {sample.first % grid_size_[0], (sample.first / grid_size_[0]) % grid_size_[1],
+                                sample.first / (grid_size_[0] * grid_size_[1])};
+      for (unsigned d = 0; d < kDim; ++d) CubicWeights(at[d] - double(first[d] + 1), sample.weights[d]);
+      CheckAgainstItk(sample, itk_weights, itk_indices);
+      samples_.push_back(sample);
     }
   }
 
@@ -110,35 +229,72 @@ class SparseMeanSquares final : public itk::SingleValuedCostFunction {
   }
 
  private:
-  using Interpolator = itk::BSplineInterpolateImageFunction<Image, double, double>;
+  struct Sample {
+    Eigen::Vector3d X;       // fixed position, mm
+    long first = 0;          // linear index of its first control point (per-axis coefficient grid)
+    double weights[kDim][4];  // cubic B-spline weights along each axis
+    float fixed_value = 0;
+  };
+
+  // The sample's control points and weights must be those ITK's transform
+  // uses (the same grid convention), or the motion would not be the spline's.
+  void CheckAgainstItk(const Sample& sample, const BSpline::WeightsType& weights,
+                       const BSpline::ParameterIndexArrayType& indices) const {
+    unsigned w = 0;
+    for (int c = 0; c < 4; ++c) {
+      for (int b = 0; b < 4; ++b) {
+        for (int a = 0; a < 4; ++a, ++w) {
+          const long index = sample.first + a + grid_size_[0] * (b + grid_size_[1] * c);
+          const double weight = sample.weights[0][a] * sample.weights[1][b] * sample.weights[2][c];
+          if (index != long(indices[w]) || std::abs(weight - weights[w]) > 1e-9) {
+            itkExceptionMacro("the B-spline grid's convention differs from ITK's transform at a fixed sample");
+          }
+        }
+      }
+    }
+  }
 
   double Evaluate(const ParametersType& parameters, DerivativeType* derivative) const {
-    transform_->SetParameters(parameters);  // refers to parameters, which outlive this call
-    const unsigned num_parameters = transform_->GetNumberOfParameters();
     const unsigned per_axis = transform_->GetNumberOfParametersPerDimension();
     if (derivative) {
-      derivative->SetSize(num_parameters);
+      derivative->SetSize(transform_->GetNumberOfParameters());
       derivative->Fill(0.0);
     }
-    BSpline::WeightsType weights(transform_->GetNumberOfWeights());
-    BSpline::ParameterIndexArrayType indices(transform_->GetNumberOfWeights());
+    const double* p = parameters.data_block();
+    const long row = grid_size_[0], slab = grid_size_[0] * grid_size_[1];
     double sum = 0;
     size_t count = 0;
-    for (size_t s = 0; s < samples_X_.size(); ++s) {
-      BSpline::OutputPointType x;
-      bool inside = false;
-      transform_->TransformPoint(samples_X_[s], x, weights, indices, inside);
-      if (!inside || !interpolator_->IsInsideBuffer(x)) continue;  // no overlap there: not compared
+    for (const Sample& sample : samples_) {
+      Eigen::Vector3d x = sample.X;
+      for (int c = 0; c < 4; ++c) {
+        for (int b = 0; b < 4; ++b) {
+          const double wbc = sample.weights[1][b] * sample.weights[2][c];
+          const long base = sample.first + row * b + slab * c;
+          for (unsigned d = 0; d < kDim; ++d) {
+            const double* q = p + d * per_axis + base;
+            x[d] += wbc * (sample.weights[0][0] * q[0] + sample.weights[0][1] * q[1] + sample.weights[0][2] * q[2] +
+                           sample.weights[0][3] * q[3]);
+          }
+        }
+      }
       double value;
-      Interpolator::CovariantVectorType gradient;
-      interpolator_->EvaluateValueAndDerivative(x, value, gradient, 0);
-      const double difference = value - fixed_values_[s];
+      Eigen::Vector3d gradient;
+      if (!moving_->Evaluate(x, &value, &gradient)) continue;  // no overlap there: not compared
+      const double difference = value - sample.fixed_value;
       sum += difference * difference;
       ++count;
       if (!derivative) continue;
-      for (unsigned w = 0; w < weights.Size(); ++w) {
-        const double scale = 2 * difference * weights[w];
-        for (unsigned d = 0; d < kDim; ++d) (*derivative)[indices[w] + d * per_axis] += scale * gradient[d];
+      const Eigen::Vector3d scaled = 2 * difference * gradient;
+      double* g = derivative->data_block();
+      for (int c = 0; c < 4; ++c) {
+        for (int b = 0; b < 4; ++b) {
+          const double wbc = sample.weights[1][b] * sample.weights[2][c];
+          const long base = sample.first + row * b + slab * c;
+          for (int a = 0; a < 4; ++a) {
+            const double weight = wbc * sample.weights[0][a];
+            for (unsigned d = 0; d < kDim; ++d) g[d * per_axis + base + a] += weight * scaled[d];
+          }
+        }
       }
     }
     if (count == 0) itkExceptionMacro("no fixed sample maps inside the moving image");
@@ -191,9 +347,9 @@ class SparseMeanSquares final : public itk::SingleValuedCostFunction {
 
   BSpline* transform_ = nullptr;
   double bending_weight_ = 0;
-  Interpolator::Pointer interpolator_;
-  std::vector<Image::PointType> samples_X_;
-  std::vector<float> fixed_values_;
+  std::unique_ptr<CubicInterpolant> moving_;
+  long grid_size_[kDim] = {0, 0, 0};  // control points per axis
+  std::vector<Sample> samples_;
 };
 
 // The metric between fixed (every voxel a sample) and moving through
