@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <memory>
 #include <sstream>
 #include <vector>
@@ -660,6 +661,23 @@ std::vector<PhaseDeformation> RegisterPhases(const std::vector<io::CtImage>& pha
   std::vector<PhaseDeformation> deformations(phases.size());
   for (int k = 1; k < static_cast<int>(phases.size()); ++k) deformations[k] = RegisterPhase(phases, k, options);
   return deformations;
+}
+
+CtSamples SampleCubic(const io::CtImage& ct, const Eigen::Matrix3Xd& points_S_m) {
+  const CubicInterpolant interpolant(ToItkImage(ct));
+  CtSamples samples;
+  samples.values_hu = Eigen::VectorXd::Constant(points_S_m.cols(), std::numeric_limits<double>::quiet_NaN());
+  samples.gradients_hu_per_m = Eigen::Matrix3Xd::Constant(3, points_S_m.cols(), std::numeric_limits<double>::quiet_NaN());
+  samples.inside.assign(points_S_m.cols(), false);
+  for (Eigen::Index i = 0; i < points_S_m.cols(); ++i) {
+    double value;
+    Eigen::Vector3d gradient_per_mm;
+    if (!interpolant.Evaluate(points_S_m.col(i) * kMmPerM, &value, &gradient_per_mm)) continue;
+    samples.values_hu[i] = value;
+    samples.gradients_hu_per_m.col(i) = gradient_per_mm * kMmPerM;
+    samples.inside[i] = true;
+  }
+  return samples;
 }
 
 std::vector<double> NodeDisplacementArray(const std::vector<PhaseDeformation>& deformations,

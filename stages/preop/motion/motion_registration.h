@@ -90,6 +90,17 @@ PhaseDeformation RegisterPhase(const std::vector<io::CtImage>& phases, int k, co
 std::vector<PhaseDeformation> RegisterPhases(const std::vector<io::CtImage>& phases,
                                              const MotionRegistrationOptions& options);
 
+// The registration's view of a CT phase as the moving image: its cubic
+// B-spline interpolant (ITK's prefilter, mirror boundaries), with the
+// gradient. Interpolates the voxels and reproduces cubic polynomials away
+// from the border.
+struct CtSamples {
+  Eigen::VectorXd values_hu;           // NaN where outside
+  Eigen::Matrix3Xd gradients_hu_per_m;  // along S's axes
+  std::vector<bool> inside;             // within half a voxel of the outer voxels' centres
+};
+CtSamples SampleCubic(const io::CtImage& ct, const Eigen::Matrix3Xd& points_S_m);
+
 // The array scan.h5 holds as /phases/node_displacement_m: shape [P, N, 3],
 // row-major (phase, node, xyz), metres; phase p's row is
 // deformations[p].Displacements(nodes_S_m).
