@@ -84,7 +84,7 @@ void CubicDerivativeWeights(double t, double weights[4]) {
 }
 
 // Index i mirrored into [0, n - 1] about the end samples (ITK's boundary
-// condition for B-spline interpolation). @pre n >= 2 and |i| < 2 n - 2.
+// condition for B-spline interpolation). @pre -(n - 1) <= i <= 2 (n - 1).
 long Mirrored(long i, long n) {
   if (i < 0) return -i;
   if (i > n - 1) return 2 * (n - 1) - i;
@@ -92,7 +92,8 @@ long Mirrored(long i, long n) {
 }
 
 // The moving image as a cubic B-spline interpolant (ITK's prefilter makes the
-// coefficients, so the function is ITK's BSplineInterpolateImageFunction's),
+// coefficients, so the function is ITK's BSplineInterpolateImageFunction's;
+// at least 4 voxels along each axis, so that the support mirrors in range),
 // evaluated with its gradient by a plain tensor-product loop: ITK's evaluator
 // recomputes its weight tables through generic containers at every call, and
 // took 40% of a registration.
@@ -664,6 +665,10 @@ std::vector<PhaseDeformation> RegisterPhases(const std::vector<io::CtImage>& pha
 }
 
 CtSamples SampleCubic(const io::CtImage& ct, const Eigen::Matrix3Xd& points_S_m) {
+  if (ct.size.minCoeff() < 4 || ct.values.size() != ct.num_voxels()) {
+    throw Error("a cubic interpolant needs at least 4 voxels along each axis and a value for every voxel", ct.source,
+                "give a volume of at least 4 x 4 x 4 voxels");
+  }
   const CubicInterpolant interpolant(ToItkImage(ct));
   CtSamples samples;
   samples.values_hu = Eigen::VectorXd::Constant(points_S_m.cols(), std::numeric_limits<double>::quiet_NaN());

@@ -99,6 +99,8 @@ struct CtSamples {
   Eigen::Matrix3Xd gradients_hu_per_m;  // along S's axes
   std::vector<bool> inside;             // within half a voxel of the outer voxels' centres
 };
+// @throws dg::Error for fewer than 4 voxels along an axis, or values that do
+//         not fill the grid.
 CtSamples SampleCubic(const io::CtImage& ct, const Eigen::Matrix3Xd& points_S_m);
 
 // The array scan.h5 holds as /phases/node_displacement_m: shape [P, N, 3],

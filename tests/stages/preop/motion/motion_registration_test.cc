@@ -222,6 +222,11 @@ TEST_CASE("motion registration: the moving image's interpolant reproduces a cubi
   CHECK(worst_gradient < 1.2e-4);
   CHECK_FALSE(samples.inside[last]);
   CHECK(std::isnan(samples.values_hu[last]));
+
+  io::CtImage thin = ct;
+  thin.size.z() = 3;
+  thin.values.resize(thin.num_voxels());
+  CHECK_THROWS_WITH(SampleCubic(thin, points), Contains("at least 4 voxels"));
 }
 
 }  // namespace
