@@ -4,19 +4,11 @@
 
 #include <Eigen/Cholesky>
 
+#include "sim/cubic_bspline.h"
 #include "sim/error.h"
 
 namespace dg::sim {
 namespace {
-
-// Uniform cubic B-spline basis on [0, 1): weights of control points i-1 .. i+2.
-void CubicBasis(double t, double b[4]) {
-  const double s = 1.0 - t;
-  b[0] = s * s * s / 6.0;
-  b[1] = (3.0 * t * t * t - 6.0 * t * t + 4.0) / 6.0;
-  b[2] = (-3.0 * t * t * t + 3.0 * t * t + 3.0 * t + 1.0) / 6.0;
-  b[3] = t * t * t / 6.0;
-}
 
 // Circulant P x P matrix with `left`, `centre`, `right` on the three cyclic diagonals.
 Eigen::MatrixXd Circulant(int P, double left, double centre, double right) {
@@ -93,7 +85,7 @@ void CyclicMotionModel::Evaluate(double phase, int first_dof, std::span<T> out) 
   const double t = s - i;
   i %= phases_;  // s may round up to exactly phases_
   double b[4];
-  CubicBasis(t, b);
+  CubicBSplineWeights(t, b);
   const double* c[4];
   for (int m = 0; m < 4; ++m) c[m] = control_.col((i + phases_ - 1 + m) % phases_).data() + first_dof;
   T* __restrict u = out.data();

@@ -30,6 +30,7 @@
 #include <itkSmoothingRecursiveGaussianImageFilter.h>
 #include <itkTransformToDisplacementFieldFilter.h>
 
+#include "sim/cubic_bspline.h"
 #include "sim/error.h"
 
 namespace dg::stages::preop {
@@ -64,23 +65,6 @@ Image::Pointer ToItkImage(const io::CtImage& ct) {
   image->Allocate();
   std::copy(ct.values.begin(), ct.values.end(), image->GetBufferPointer());
   return image;
-}
-
-// The uniform cubic B-spline's four weights at t in [0, 1) (the basis
-// functions of the knot intervals left to right), and their derivatives.
-void CubicWeights(double t, double weights[4]) {
-  const double s = 1 - t, t2 = t * t, t3 = t2 * t;
-  weights[0] = s * s * s / 6;
-  weights[1] = (3 * t3 - 6 * t2 + 4) / 6;
-  weights[2] = (-3 * t3 + 3 * t2 + 3 * t + 1) / 6;
-  weights[3] = t3 / 6;
-}
-void CubicDerivativeWeights(double t, double weights[4]) {
-  const double s = 1 - t;
-  weights[0] = -s * s / 2;
-  weights[1] = (3 * t * t - 4 * t) / 2;
-  weights[2] = (-3 * t * t + 2 * t + 1) / 2;
-  weights[3] = t * t / 2;
 }
 
 // Index i mirrored into [0, n - 1] about the end samples (ITK's boundary
@@ -131,8 +115,8 @@ class CubicInterpolant {
       if (!(index[d] >= -0.5 && index[d] < size_[d] - 0.5)) return false;
       const double floor = std::floor(index[d]);
       first[d] = static_cast<long>(floor) - 1;
-      CubicWeights(index[d] - floor, w[d]);
-      CubicDerivativeWeights(index[d] - floor, dw[d]);
+      sim::CubicBSplineWeights(index[d] - floor, w[d]);
+      sim::CubicBSplineDerivativeWeights(index[d] - floor, dw[d]);
     }
     double sum = 0;
     Eigen::Vector3d along_index = Eigen::Vector3d::Zero();
@@ -211,7 +195,7 @@ class SparseMeanSquares final : public itk::SingleValuedCostFunction {
       sample.first = static_cast<long>(itk_indices[0]);
       const long first[kDim] = {sample.first % grid_size_[0], (sample.first / grid_size_[0]) % grid_size_[1],
                                 sample.first / (grid_size_[0] * grid_size_[1])};
-      for (unsigned d = 0; d < kDim; ++d) CubicWeights(at[d] - double(first[d] + 1), sample.weights[d]);
+      for (unsigned d = 0; d < kDim; ++d) sim::CubicBSplineWeights(at[d] - double(first[d] + 1), sample.weights[d]);
       CheckAgainstItk(sample, itk_weights, itk_indices);
       samples_.push_back(sample);
     }
