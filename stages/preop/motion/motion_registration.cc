@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <memory>
 #include <sstream>
@@ -173,7 +174,11 @@ class SparseMeanSquares final : public itk::SingleValuedCostFunction {
     bending_weight_ = bending_weight;
     moving_ = std::make_unique<CubicInterpolant>(moving);
     const BSpline::ImagePointer grid = transform->GetCoefficientImages()[0];
-    for (unsigned d = 0; d < kDim; ++d) grid_size_[d] = static_cast<long>(grid->GetBufferedRegion().GetSize(d));
+    for (unsigned d = 0; d < kDim; ++d) {
+      grid_size_[d] = static_cast<long>(grid->GetBufferedRegion().GetSize(d));
+      grid_origin_[d] = grid->GetOrigin()[d];
+      for (unsigned e = 0; e < kDim; ++e) grid_axes_(d, e) = grid->GetDirection()(d, e) * grid->GetSpacing()[e];
+    }
     samples_.clear();
     BSpline::WeightsType itk_weights(transform->GetNumberOfWeights());
     BSpline::ParameterIndexArrayType itk_indices(transform->GetNumberOfWeights());
@@ -185,18 +190,16 @@ class SparseMeanSquares final : public itk::SingleValuedCostFunction {
       transform->TransformPoint(X, unused, itk_weights, itk_indices, inside);
       if (!inside) continue;  // outside the spline's domain: no motion defined there, not compared
       Sample sample;
-      sample.X = Eigen::Vector3d(X[0], X[1], X[2]);
       sample.fixed_value = it.Get();
       // The support starts where ITK's transform starts it: at a sample on a
       // knot, rounding may put it one interval either side, where the extra
       // weight is zero either way.
       itk::ContinuousIndex<double, kDim> at;
       grid->TransformPhysicalPointToContinuousIndex(X, at);
-      sample.first = static_cast<long>(itk_indices[0]);
-      const long first[kDim] = {sample.first % grid_size_[0], (sample.first / grid_size_[0]) % grid_size_[1],
-                                sample.first / (grid_size_[0] * grid_size_[1])};
-      for (unsigned d = 0; d < kDim; ++d) sim::CubicBSplineWeights(at[d] - double(first[d] + 1), sample.weights[d]);
-      CheckAgainstItk(sample, itk_weights, itk_indices);
+      sample.first = static_cast<std::int32_t>(itk_indices[0]);
+      const Eigen::Matrix<long, 3, 1> first = FirstPerAxis(sample);
+      for (unsigned d = 0; d < kDim; ++d) sample.t[d] = at[d] - double(first[d] + 1);
+      CheckAgainstItk(sample, X, itk_weights, itk_indices);
       samples_.push_back(sample);
     }
   }
@@ -215,29 +218,47 @@ class SparseMeanSquares final : public itk::SingleValuedCostFunction {
   }
 
  private:
+  // A fixed voxel as the spline sees it, in 32 bytes (a CT of 10^8 voxels
+  // must fit twice in memory): its position and weights follow from these.
   struct Sample {
-    Eigen::Vector3d X;       // fixed position, mm
-    long first = 0;          // linear index of its first control point (per-axis coefficient grid)
-    double weights[kDim][4];  // cubic B-spline weights along each axis
+    double t[kDim];           // position within its knot interval along each axis, [0, 1]
+    std::int32_t first = 0;   // linear index of its first control point (per-axis coefficient grid)
     float fixed_value = 0;
   };
 
-  // The sample's control points and weights must be those ITK's transform
-  // uses (the same grid convention), or the motion would not be the spline's.
-  void CheckAgainstItk(const Sample& sample, const BSpline::WeightsType& weights,
+  Eigen::Matrix<long, 3, 1> FirstPerAxis(const Sample& sample) const {
+    return {sample.first % grid_size_[0], (sample.first / grid_size_[0]) % grid_size_[1],
+            sample.first / (grid_size_[0] * grid_size_[1])};
+  }
+  // The sample's position, mm: the grid's continuous index first + 1 + t.
+  Eigen::Vector3d FixedPosition(const Sample& sample) const {
+    const Eigen::Vector3d at = (FirstPerAxis(sample).array() + 1).cast<double>().matrix() +
+                               Eigen::Vector3d(sample.t[0], sample.t[1], sample.t[2]);
+    return grid_origin_ + grid_axes_ * at;
+  }
+  static void Weights(const Sample& sample, double weights[kDim][4]) {
+    for (unsigned d = 0; d < kDim; ++d) sim::CubicBSplineWeights(sample.t[d], weights[d]);
+  }
+
+  // The sample's control points, weights and position must be those ITK's
+  // transform uses (the same grid convention), or the motion would not be
+  // the spline's.
+  void CheckAgainstItk(const Sample& sample, const Image::PointType& X, const BSpline::WeightsType& itk_weights,
                        const BSpline::ParameterIndexArrayType& indices) const {
+    double weights[kDim][4];
+    Weights(sample, weights);
+    bool same = (FixedPosition(sample) - Eigen::Vector3d(X[0], X[1], X[2])).norm() < 1e-9;
     unsigned w = 0;
     for (int c = 0; c < 4; ++c) {
       for (int b = 0; b < 4; ++b) {
         for (int a = 0; a < 4; ++a, ++w) {
           const long index = sample.first + a + grid_size_[0] * (b + grid_size_[1] * c);
-          const double weight = sample.weights[0][a] * sample.weights[1][b] * sample.weights[2][c];
-          if (index != long(indices[w]) || std::abs(weight - weights[w]) > 1e-9) {
-            itkExceptionMacro("the B-spline grid's convention differs from ITK's transform at a fixed sample");
-          }
+          const double weight = weights[0][a] * weights[1][b] * weights[2][c];
+          same = same && index == long(indices[w]) && std::abs(weight - itk_weights[w]) <= 1e-9;
         }
       }
     }
+    if (!same) itkExceptionMacro("the B-spline grid's convention differs from ITK's transform at a fixed sample");
   }
 
   double Evaluate(const ParametersType& parameters, DerivativeType* derivative) const {
@@ -250,16 +271,17 @@ class SparseMeanSquares final : public itk::SingleValuedCostFunction {
     const long row = grid_size_[0], slab = grid_size_[0] * grid_size_[1];
     double sum = 0;
     size_t count = 0;
+    double weights[kDim][4];
     for (const Sample& sample : samples_) {
-      Eigen::Vector3d x = sample.X;
+      Weights(sample, weights);
+      Eigen::Vector3d x = FixedPosition(sample);
       for (int c = 0; c < 4; ++c) {
         for (int b = 0; b < 4; ++b) {
-          const double wbc = sample.weights[1][b] * sample.weights[2][c];
+          const double wbc = weights[1][b] * weights[2][c];
           const long base = sample.first + row * b + slab * c;
           for (unsigned d = 0; d < kDim; ++d) {
             const double* q = p + d * per_axis + base;
-            x[d] += wbc * (sample.weights[0][0] * q[0] + sample.weights[0][1] * q[1] + sample.weights[0][2] * q[2] +
-                           sample.weights[0][3] * q[3]);
+            x[d] += wbc * (weights[0][0] * q[0] + weights[0][1] * q[1] + weights[0][2] * q[2] + weights[0][3] * q[3]);
           }
         }
       }
@@ -274,10 +296,10 @@ class SparseMeanSquares final : public itk::SingleValuedCostFunction {
       double* g = derivative->data_block();
       for (int c = 0; c < 4; ++c) {
         for (int b = 0; b < 4; ++b) {
-          const double wbc = sample.weights[1][b] * sample.weights[2][c];
+          const double wbc = weights[1][b] * weights[2][c];
           const long base = sample.first + row * b + slab * c;
           for (int a = 0; a < 4; ++a) {
-            const double weight = wbc * sample.weights[0][a];
+            const double weight = wbc * weights[0][a];
             for (unsigned d = 0; d < kDim; ++d) g[d * per_axis + base + a] += weight * scaled[d];
           }
         }
@@ -335,6 +357,8 @@ class SparseMeanSquares final : public itk::SingleValuedCostFunction {
   double bending_weight_ = 0;
   std::unique_ptr<CubicInterpolant> moving_;
   long grid_size_[kDim] = {0, 0, 0};  // control points per axis
+  Eigen::Vector3d grid_origin_ = Eigen::Vector3d::Zero();      // control point 0, mm
+  Eigen::Matrix3d grid_axes_ = Eigen::Matrix3d::Identity();    // columns: a step along each grid axis, mm
   std::vector<Sample> samples_;
 };
 
