@@ -16,7 +16,8 @@ double MaterialHu(const HeartGeometry& geometry, const HeartMotion& motion, cons
   if (HeartGeometry::InMount(x)) return kMountHu;
   const Eigen::Vector3d X = motion.Undeform(x, state);
   if (!geometry.InTissue(X)) return kAirHu;
-  return geometry.ChamberAt(X) >= 0 ? kChamberHu : kTissueHu;
+  if (geometry.ChamberAt(X) >= 0) return kChamberHu;
+  return geometry.InVessel(X) ? kFatHu : kTissueHu;
 }
 
 }  // namespace

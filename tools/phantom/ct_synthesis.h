@@ -12,14 +12,14 @@
 namespace dg::tools::phantom {
 
 // CT numbers (HU) of the phantom's materials.
-inline constexpr int16_t kAirHu = -1000, kTissueHu = 40, kChamberHu = 250, kMountHu = 500, kBeadHu = 3000;
+inline constexpr int16_t kAirHu = -1000, kFatHu = -100, kTissueHu = 40, kChamberHu = 250, kMountHu = 500, kBeadHu = 3000;
 
 // The voxel grid of the 4D CT: covers the phantom at any phase of its motion,
 // with a margin, and the top of the mount.
 io::VolumeI16 MakeCtGrid(const PhantomSpec& spec);
 
 // One phase of the 4D CT: each voxel the mean of 2x2x2 samples mapped back to
-// the reference configuration (air, tissue, chamber or mount), and the beads
+// the reference configuration (air, tissue, vessel fat, chamber or mount), and the beads
 // (spheres of SurfaceAssets::kBeadRadius_m around the deformed fiducials)
 // blended in by the fraction of 6x6x6 samples they cover, so that their
 // intensity-weighted centroids fall on the fiducials; then Gaussian noise.
