@@ -51,8 +51,8 @@ TEST_CASE("preop: the tiny phantom's DICOM CT to a scene whose motion matches th
   const PreopMotionErrors errors = EvaluatePreopMotion(out, testing::TinyPhantomDir());
   INFO("nodes mean " << errors.node_error_mean_mm << " max " << errors.node_error_max_mm << " mm; fiducials deformed "
                      << errors.fiducial_deformed_mean_mm << " found " << errors.fiducial_found_mean_mm << " mm");
-  // Achieved on the tiny phantom's 1.5 mm grid: nodes 0.46 / 2.4 mm, fiducials 0.19 / 0.20 mm.
-  CHECK(errors.node_error_mean_mm < 0.9);
+  // Achieved on the tiny phantom's 1.5 mm grid: nodes 0.36 / 2.34 mm, fiducials 0.21 / 0.19 mm.
+  CHECK(errors.node_error_mean_mm < 0.75);
   CHECK(errors.node_error_max_mm < 4.5);
   CHECK(errors.fiducial_deformed_mean_mm < 0.4);
   CHECK(errors.fiducial_found_mean_mm < 0.4);
