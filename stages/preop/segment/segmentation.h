@@ -52,7 +52,7 @@ struct HuRange {
 // organ's largest connected component is dropped, and the report counts it.
 //
 // Automatic mode (no label map), on the phantom's CT numbers in HU (air at -1000,
-// epicardial fat -100, tissue 40, chambers 250, mount 500, beads 3000):
+// epicardial fat at -100, tissue at 40, chambers 250, mount 500, beads 3000):
 //  1. mount: the largest connected component of mount_hu;
 //  2. markers: voxels of at least marker_min_hu, grown by marker_margin_voxels
 //     to take in their partial-volume shell. The fiducial beads are rigid
