@@ -26,7 +26,8 @@ TubeSet::TubeSet(const std::vector<Eigen::Matrix3Xd>& polylines, double radius_m
     hi = hi.cwiseMax(line.rowwise().maxCoeff());
   }
   if (starts_.empty()) return;
-  // Cells about two radii wide: a segment a tube-radius long touches a few of them.
+  // Cells two radii wide: each segment, grown by the radius, overlaps a few of them,
+  // and a point is tested against those few only.
   cell_ = 2 * radius_;
   grid_origin_ = lo - Eigen::Vector3d::Constant(radius_);
   grid_size_ = ((hi - lo).array() / cell_ + 2).ceil().cast<int>() + 1;

@@ -16,7 +16,6 @@ class TubeSet {
   TubeSet(const std::vector<Eigen::Matrix3Xd>& polylines, double radius_m);
 
   bool Contains(const Eigen::Vector3d& X) const;
-  bool empty() const { return starts_.empty(); }
 
  private:
   int CellIndex(const Eigen::Vector3i& cell) const;
