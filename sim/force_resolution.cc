@@ -19,9 +19,9 @@ namespace {
 // Runs body(first_block, end_block) for the model's fixed block chunks in parallel.
 template <typename T, typename Body>
 void ForEachBlockChunk(const TledModel<T>& model, Body body) {
-  tbb::parallel_for(tbb::blocked_range<int>(0, ElementChunks(model)), [&](const tbb::blocked_range<int>& chunks) {
+  tbb::parallel_for(tbb::blocked_range<int>(0, model.element_chunks()), [&](const tbb::blocked_range<int>& chunks) {
     for (int c = chunks.begin(); c != chunks.end(); ++c) {
-      body(c, c * kBlocksPerChunk, std::min((c + 1) * kBlocksPerChunk, model.num_blocks()));
+      body(c, model.chunk_block_begin(c), model.chunk_block_begin(c + 1));
     }
   });
 }
@@ -132,7 +132,7 @@ ForceResolution<T>::ForceResolution(std::shared_ptr<const TledModel<T>> model) :
     inverse_count_[a] = T(1) / static_cast<T>(model_->gather_begin()[a + 1] - model_->gather_begin()[a]);
   }
   corner_forces_.assign(model_->force_array_size(), T(0));
-  chunk_min_ratio_.assign(ElementChunks(*model_), T(1));
+  chunk_min_ratio_.assign(model_->element_chunks(), T(1));
   layout_u_.resize(3 * size_t(mesh.num_nodes()));
   layout_forces_.resize(3 * size_t(mesh.num_nodes()));
 }

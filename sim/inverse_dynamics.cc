@@ -50,7 +50,7 @@ ForceRecovery<T>::ForceRecovery(std::shared_ptr<const TledModel<T>> model, const
     for (int i = 0; i < 3; ++i) gravity_force_[3 * a + i] = static_cast<T>(mass[a] * options.gravity_m_s2[i]);
   }
   element_forces_.assign(model_->force_array_size(), T(0));
-  chunk_min_J_.assign(ElementChunks(*model_), T(1));
+  chunk_min_J_.assign(model_->element_chunks(), T(1));
   for (std::vector<T>& level : layout_levels_) level.resize(3 * mass.size());
   layout_forces_.resize(3 * mass.size());
 }
@@ -126,8 +126,8 @@ InverseSimulation<T>::InverseSimulation(std::shared_ptr<const TledModel<T>> mode
   edge_inverse_.assign(size_t(model_->num_blocks()) * 9 * TledModel<T>::kLanes, T(0));
   scaled_forces_.assign(3 * size_t(N), T(0));
   for (AlignedVector<T>& level : weights_) level.assign(model_->force_array_size(), T(0));
-  chunk_min_J_.assign(ElementChunks(*model_), T(1));
-  chunk_min_ratio_.assign(ElementChunks(*model_), T(1));
+  chunk_min_J_.assign(model_->element_chunks(), T(1));
+  chunk_min_ratio_.assign(model_->element_chunks(), T(1));
   chunk_node_count_ = NodeChunks(*model_);
   // Level 0's forces need Um_-1 and Um_0 (the node pass adds Um_1); three
   // passes then bring the weights of levels 0 and 1 (the first pass resolves zeros).
@@ -153,8 +153,7 @@ void InverseSimulation<T>::Advance() {
 
 template <typename T>
 void InverseSimulation<T>::ElementChunk(int chunk) {
-  const int begin = chunk * kBlocksPerChunk;
-  const int end = std::min(begin + kBlocksPerChunk, model_->num_blocks());
+  const int begin = model_->chunk_block_begin(chunk), end = model_->chunk_block_begin(chunk + 1);
   // The pass resolves the level before the pending one.
   ResolveBuffers<T> resolve{edge_inverse_.data(), scaled_forces_.data(), weights_[Slot(pending_level_ - 1)].data()};
   chunk_min_J_[chunk] = ComputeElementForcesAndResolve(*model_, motion_levels_[Slot(pending_level_)].data(), &resolve,

@@ -219,9 +219,8 @@ void ComputeElementForcesParallel(const TledModel<T>& model, const T* u, T* forc
       tbb::blocked_range<int>(0, static_cast<int>(chunk_min_J.size())),
       [&](const tbb::blocked_range<int>& chunks) {
         for (int c = chunks.begin(); c != chunks.end(); ++c) {
-          const int begin = c * kBlocksPerChunk;
-          const int end = std::min(begin + kBlocksPerChunk, model.num_blocks());
-          chunk_min_J[c] = ComputeElementForces(model, u, forces, begin, end);
+          chunk_min_J[c] = ComputeElementForces(model, u, forces, model.chunk_block_begin(c),
+                                                model.chunk_block_begin(c + 1));
         }
       },
       tbb::auto_partitioner());
@@ -230,7 +229,13 @@ void ComputeElementForcesParallel(const TledModel<T>& model, const T* u, T* forc
 template <typename T>
 ChunkHomes PartitionChunks(const TledModel<T>& model, int parts) {
   constexpr int W = TledModel<T>::kLanes;
-  const int element_chunks = ElementChunks(model), node_chunks = NodeChunks(model);
+  if (model.parts() == parts) {
+    ChunkHomes homes;
+    homes.elements.assign(model.part_chunk_begin().begin(), model.part_chunk_begin().end());
+    for (int node : model.part_node_begin()) homes.nodes.push_back((node + kNodesPerChunk - 1) / kNodesPerChunk);
+    return homes;
+  }
+  const int element_chunks = model.element_chunks(), node_chunks = NodeChunks(model);
   // The first (smallest) layout node of the element in `slot`: the sort key.
   auto first_node = [&](int slot) {
     const int32_t* nodes = model.block_nodes(slot / W);
@@ -244,7 +249,7 @@ ChunkHomes PartitionChunks(const TledModel<T>& model, int parts) {
                                       homes.nodes.back(), node_chunks);
     int element_chunk = homes.elements.back();
     while (element_chunk < element_chunks &&
-           first_node(element_chunk * kBlocksPerChunk * W) < node_chunk * kNodesPerChunk) {
+           first_node(model.chunk_block_begin(element_chunk) * W) < node_chunk * kNodesPerChunk) {
       ++element_chunk;
     }
     homes.nodes.push_back(node_chunk);

@@ -60,23 +60,11 @@ template <typename T>
 T ComputeElementForcesAndResolve(const TledModel<T>& model, const T* u, ResolveBuffers<T>* resolve, T* forces,
                                  int block_begin, int block_end);
 
-// Blocks per unit of parallel work in the element pass. Partial results (the
-// smallest J) are kept per chunk, so they combine in the same order whatever
-// the thread count.
-constexpr int kBlocksPerChunk = 8;
-template <typename T>
-int ElementChunks(const TledModel<T>& model) {
-  return (model.num_blocks() + kBlocksPerChunk - 1) / kBlocksPerChunk;
-}
-
 // ComputeElementForces over all blocks under tbb::parallel_for, chunk c
-// writing its smallest J to chunk_min_J[c]. @pre chunk_min_J.size() == ElementChunks(model)
+// writing its smallest J to chunk_min_J[c]. @pre chunk_min_J.size() == model.element_chunks()
 template <typename T>
 void ComputeElementForcesParallel(const TledModel<T>& model, const T* u, T* forces, std::span<T> chunk_min_J);
 
-// Nodes per unit of parallel work in the node passes. Partial results (kinetic
-// energy) are kept per chunk, so they combine in the same order whatever the thread count.
-constexpr int kNodesPerChunk = 128;
 template <typename T>
 int NodeChunks(const TledModel<T>& model) {
   return (model.num_nodes() + kNodesPerChunk - 1) / kNodesPerChunk;
@@ -84,11 +72,12 @@ int NodeChunks(const TledModel<T>& model) {
 
 // Home ranges of element and node chunks for a team of `parts` workers
 // (StepTeam::ForEachChunk), each parts + 1 bounds, that keep a worker's
-// elements and nodes in the same region of the body: elements are sorted by
-// their first layout node, so the node chunks are split where the elements'
-// count is split evenly, and the element chunks where their first node
-// crosses into the next worker's nodes. A node then gathers mostly forces its
-// own worker wrote in the same step, from its own core's cache.
+// elements and nodes in the same region of the body. For a model of that
+// many parts they are its parts: a node gathers only forces its own worker
+// wrote. Otherwise, since elements are sorted by their first layout node, the
+// node chunks are split where the elements' count is split evenly, and the
+// element chunks where their first node crosses into the next worker's
+// nodes: a node then gathers mostly forces from its own core's cache.
 struct ChunkHomes {
   std::vector<int> elements, nodes;
 };

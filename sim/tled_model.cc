@@ -6,11 +6,13 @@
 #include <Eigen/Dense>
 
 #include "sim/error.h"
+#include "sim/step_team.h"
+#include "sim/subdomains.h"
 
 namespace dg::sim {
 
 template <typename T>
-TledModel<T>::TledModel(const TetMesh& mesh, const Material& material)
+TledModel<T>::TledModel(const TetMesh& mesh, const Material& material, int parts)
     : mesh_(mesh), material_(material) {
   if (const std::string problem = material.Validate(); !problem.empty()) {
     throw Error("invalid material: " + problem, "material", "correct the material parameters");
@@ -29,25 +31,44 @@ TledModel<T>::TledModel(const TetMesh& mesh, const Material& material)
   for (size_t a = 0; a < layout_of_node_.size(); ++a) node_of_layout_[layout_of_node_[a]] = static_cast<int>(a);
   const TetMesh& layout = layout_mesh_;
 
-  // Elements in order of their smallest node: neighbours in memory share nodes.
-  const int E = layout.num_tets();
-  std::vector<int> order(E);
-  std::iota(order.begin(), order.end(), 0);
-  std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
-    return layout.tets.col(a).minCoeff() < layout.tets.col(b).minCoeff();
-  });
+  // Blocks: each part's elements (its own and its halo, in order of their
+  // smallest node, so that a block's lanes share nodes), padded to whole
+  // blocks with zero-volume elements on the part's first node, and cut into
+  // chunks that stay inside the part.
+  const Subdomains split = SplitIntoSubdomains(layout, parts > 0 ? parts : DefaultTeamSize(), kNodesPerChunk);
+  part_node_begin_ = split.node_begin;
+  std::vector<int> slot_element;  // -1: padding
+  std::vector<int> part_of_slot;
+  part_chunk_begin_ = {0};
+  chunk_block_begin_ = {0};
+  for (size_t w = 0; w < split.elements.size(); ++w) {
+    const std::vector<int>& elements = split.elements[w];
+    const int blocks = static_cast<int>((elements.size() + kLanes - 1) / kLanes);
+    slot_element.insert(slot_element.end(), elements.begin(), elements.end());
+    slot_element.resize(slot_element.size() + size_t(blocks) * kLanes - elements.size(), -1);
+    part_of_slot.resize(slot_element.size(), static_cast<int>(w));
+    const int first_block = chunk_block_begin_.back();
+    for (int b = kBlocksPerChunk; b < blocks; b += kBlocksPerChunk) chunk_block_begin_.push_back(first_block + b);
+    if (blocks > 0) chunk_block_begin_.push_back(first_block + blocks);
+    part_chunk_begin_.push_back(static_cast<int>(chunk_block_begin_.size()) - 1);
+  }
 
-  num_blocks_ = (E + kLanes - 1) / kLanes;
+  num_blocks_ = chunk_block_begin_.back();
   const size_t slots = size_t(num_blocks_) * kLanes;
   nodes_.assign(slots * 4, 0);
   dN_dX_.assign(slots * 9, T(0));
   volume_m3_.assign(slots, T(0));
   edges_m_.assign(slots * 9, T(0));
   mass_kg_.assign(layout.num_nodes(), 0.0);
+  std::vector<bool> weighed(layout.num_tets(), false);
 
-  for (size_t slot = 0; slot < size_t(E); ++slot) {
-    const int e = order[slot];
+  for (size_t slot = 0; slot < slots; ++slot) {
     const size_t b = slot / kLanes, l = slot % kLanes;
+    const int e = slot_element[slot];
+    if (e < 0) {
+      for (int c = 0; c < 4; ++c) nodes_[(b * 4 + c) * kLanes + l] = part_node_begin_[part_of_slot[slot]];
+      continue;
+    }
     // dN/dX from the inverse of the reference edge matrix: for linear shape
     // functions, [dN1; dN2; dN3] = (X1-X0, X2-X0, X3-X0)^-1 (rows: corners).
     Eigen::Matrix3d edges;
@@ -62,23 +83,40 @@ TledModel<T>::TledModel(const TetMesh& mesh, const Material& material)
       }
     }
     volume_m3_[b * kLanes + l] = static_cast<T>(volume);
-    for (int c = 0; c < 4; ++c) mass_kg_[layout.tets(c, e)] += material_.density_kg_m3 * volume / 4.0;
+    if (!weighed[e]) {  // a halo element's mass counts once
+      weighed[e] = true;
+      for (int c = 0; c < 4; ++c) mass_kg_[layout.tets(c, e)] += material_.density_kg_m3 * volume / 4.0;
+    }
   }
 
-  // Gather list: each node's incidences in the order of their place in the
-  // force array (a fixed summation order, read front to back).
-  std::vector<int> slot_of_element(E);
-  for (int slot = 0; slot < E; ++slot) slot_of_element[order[slot]] = slot;
-  const NodeIncidence incidence = BuildNodeIncidence(layout);
-  gather_begin_.assign(incidence.offsets.begin(), incidence.offsets.end());
-  gather_offsets_.resize(incidence.elements.size());
-  for (size_t k = 0; k < incidence.elements.size(); ++k) {
-    const size_t slot = slot_of_element[incidence.elements[k]];
-    const size_t b = slot / kLanes, l = slot % kLanes;
-    gather_offsets_[k] = static_cast<int32_t>((b * 12 + incidence.corners[k] * 3) * kLanes + l);
+  // Gather list: each node's incidences in its own part's copies of its
+  // elements, in slot order. A part lists its elements in the order of all
+  // elements (by smallest node, then id), so a node sums the same elements in
+  // the same order whatever the number of parts, as the masses are summed
+  // (in order of first placement, which is that order too): results do not
+  // depend on the parts, nor so on the team size the model was built for.
+  auto owns = [&](size_t slot, int node) {
+    const int w = part_of_slot[slot];
+    return node >= part_node_begin_[w] && node < part_node_begin_[w + 1];
+  };
+  gather_begin_.assign(layout.num_nodes() + 1, 0);
+  for (size_t slot = 0; slot < slots; ++slot) {
+    if (slot_element[slot] < 0) continue;
+    for (int c = 0; c < 4; ++c) {
+      const int a = layout.tets(c, slot_element[slot]);
+      if (owns(slot, a)) ++gather_begin_[a + 1];
+    }
   }
-  for (int a = 0; a < layout.num_nodes(); ++a) {
-    std::sort(gather_offsets_.begin() + gather_begin_[a], gather_offsets_.begin() + gather_begin_[a + 1]);
+  std::partial_sum(gather_begin_.begin(), gather_begin_.end(), gather_begin_.begin());
+  gather_offsets_.resize(gather_begin_.back());
+  std::vector<int32_t> filled(gather_begin_.begin(), gather_begin_.end() - 1);
+  for (size_t slot = 0; slot < slots; ++slot) {
+    if (slot_element[slot] < 0) continue;
+    const size_t b = slot / kLanes, l = slot % kLanes;
+    for (int c = 0; c < 4; ++c) {
+      const int a = layout.tets(c, slot_element[slot]);
+      if (owns(slot, a)) gather_offsets_[filled[a]++] = static_cast<int32_t>((b * 12 + c * 3) * kLanes + l);
+    }
   }
   for (int a = 0; a < layout.num_nodes(); ++a) {
     if (mass_kg_[a] <= 0) {

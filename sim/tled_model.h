@@ -33,14 +33,32 @@ namespace dg::sim {
 // zero-volume elements on node 0, which produce no force. Only dN/dX of corners
 // 1..3 are stored: dN0/dX = -(dN1 + dN2 + dN3)/dX since the shape functions sum to one.
 //
+// Parts, for threads (docs/solver.md, "Subdomains"): the layout nodes are cut
+// into `parts` ranges, one per worker of a step team, and each part's blocks
+// hold every element that touches its nodes, so that the elements on a cut
+// appear once in each part they touch (the halo). A node gathers only from its
+// own part's copies: the forces a worker sums are the ones it computed. With
+// one part the layout is the plain one above.
+//
 // Thread-safe to share read-only between any number of solvers.
+
+// Blocks per unit of parallel work in the element passes, and nodes per unit
+// in the node passes. Partial results (smallest J, kinetic energy) are kept
+// per chunk, so they combine in the same order whatever the thread count.
+constexpr int kBlocksPerChunk = 8;
+constexpr int kNodesPerChunk = 32;
+
 template <typename T>
 class TledModel {
  public:
   static constexpr int kLanes = static_cast<int>(64 / sizeof(T));
 
+  // `parts`: one per worker of the step teams that will run it, 0 for the
+  // process's default team size (DefaultTeamSize()); fewer on a mesh of
+  // fewer than `parts` node chunks. Any team can run any model: a model of
+  // fewer parts than workers only shares more forces between cores.
   // @throws dg::Error for an invalid material or a degenerate/inverted element.
-  TledModel(const TetMesh& mesh, const Material& material);
+  TledModel(const TetMesh& mesh, const Material& material, int parts = 0);
 
   // The mesh as given (oriented), in its own node order.
   const TetMesh& mesh() const { return mesh_; }
@@ -75,6 +93,15 @@ class TledModel {
   // difference u_j - u_0 added, the edges of any deformed geometry (force resolution).
   const T* block_reference_edges(int b) const { return edges_m_.data() + size_t(b) * 9 * kLanes; }
 
+  // Part w owns layout nodes [part_node_begin()[w], part_node_begin()[w + 1])
+  // (whole node chunks) and element chunks [part_chunk_begin()[w], part_chunk_begin()[w + 1]).
+  int parts() const { return static_cast<int>(part_node_begin_.size()) - 1; }
+  std::span<const int> part_node_begin() const { return part_node_begin_; }
+  std::span<const int> part_chunk_begin() const { return part_chunk_begin_; }
+  // Element chunk c is blocks [chunk_block_begin(c), chunk_block_begin(c + 1)).
+  int element_chunks() const { return static_cast<int>(chunk_block_begin_.size()) - 1; }
+  int chunk_block_begin(int c) const { return chunk_block_begin_[c]; }
+
   // Size of the element-major force array the kernel writes: [block][corner][xyz][lane].
   size_t force_array_size() const { return size_t(num_blocks_) * 12 * kLanes; }
   // Layout node a's incidences are gather_offsets()[gather_begin()[a] .. gather_begin()[a+1]):
@@ -91,6 +118,7 @@ class TledModel {
   std::vector<int> layout_of_node_, node_of_layout_;
   Material material_;
   int num_blocks_ = 0;
+  std::vector<int> part_node_begin_, part_chunk_begin_, chunk_block_begin_;
   AlignedVector<int32_t> nodes_;
   AlignedVector<T> dN_dX_;
   AlignedVector<T> volume_m3_;

@@ -15,7 +15,7 @@
 namespace dg::sim {
 namespace {
 
-// Work is split into fixed chunks (kBlocksPerChunk, kNodesPerChunk) so that
+// Work is split into the model's fixed chunks (of blocks and of nodes) so that
 // every partial result (minimum J, kinetic energy) is summed in the same order
 // whatever the thread count; a StepTeam hands the chunks out.
 
@@ -148,7 +148,7 @@ TledSolver<T>::TledSolver(std::shared_ptr<const TledModel<T>> model, BoundaryCon
   internal_force_.assign(n_dofs, T(0));
   external_force_.assign(n_dofs, T(0));
   reaction_.assign(n_dofs, T(0));
-  chunk_min_J_.assign(ElementChunks(*model_), T(1));
+  chunk_min_J_.assign(model_->element_chunks(), T(1));
   chunk_kinetic_.assign(NodeChunks(*model_), 0.0);
   for (int c = 0; c <= node_chunks(); ++c) {
     const int first_dof = 3 * std::min(c * kNodesPerChunk, model_->num_nodes());
@@ -244,8 +244,7 @@ void TledSolver<T>::Advance(int steps, std::span<const double> targets_m) {
 template <typename T>
 void TledSolver<T>::ElementChunk(int chunk) {
   // Forces (less the element loads) of every element at U.
-  const int begin = chunk * kBlocksPerChunk;
-  const int end = std::min(begin + kBlocksPerChunk, model_->num_blocks());
+  const int begin = model_->chunk_block_begin(chunk), end = model_->chunk_block_begin(chunk + 1);
   chunk_min_J_[chunk] =
       element_loads_.first
           ? ComputeElementForcesLessLoads(*model_, u_.data(), element_loads_, element_forces_.data(), begin, end)
