@@ -73,6 +73,8 @@ void AddPreopCommand(CLI::App& app) {
   command->add_option("--grid-mm", o.motion.grid_spacing_mm, "B-spline control-point spacing at the finest level, mm")
       ->capture_default_str();
   command->add_option("--levels", o.motion.levels, "B-spline registration levels, coarse to fine")->capture_default_str();
+  command->add_option("--iterations", o.motion.max_iterations, "B-spline registration: L-BFGS iterations per level")
+      ->capture_default_str();
   command->add_option("--bending-weight", o.motion.bending_weight,
                       "B-spline bending penalty, HU^2 per mm^2 of the control points' mean squared second difference")
       ->capture_default_str();
