@@ -14,6 +14,9 @@ namespace {
 // than an oversubscribed core's time slice.
 constexpr int kSpinPauses = 4096;
 
+// The most a taken chunk may count for, in chunks of the taker's own range.
+constexpr double kMaxTakeCost = 8;
+
 inline void CpuRelax() {
 #if defined(__x86_64__) || defined(__i386__)
   __builtin_ia32_pause();
@@ -150,6 +153,23 @@ void StepTeam::EndPass(State& s) {
     }
   }
   for (State::Claim& claim : s.claims) claim.next.store(0, std::memory_order_relaxed);
+}
+
+int StepTeam::Reserve(int taker, int owner, double own_ns) const {
+  const State& s = *state_;
+  const bool owner_in_run =
+      owner == 0 || s.admitted[owner].load(std::memory_order_relaxed) == s.run_id.load(std::memory_order_relaxed);
+  if (!owner_in_run || own_ns <= 0) return 0;
+  return static_cast<int>(2 * s.take_cost[taker].own_chunks);
+}
+
+void StepTeam::RecordTake(int taker, double taken_ns, double own_ns) {
+  if (own_ns <= 0) return;
+  double& cost = state_->take_cost[taker].own_chunks;
+  // A sample beyond kMaxTakeCost is a preemption or a page fault, not the
+  // cost of moving a chunk's data: clamped, it cannot stop all taking.
+  const double sample = std::min(taken_ns / own_ns, kMaxTakeCost);
+  cost = cost == 0 ? sample : cost + 0.25 * (sample - cost);
 }
 
 int DefaultTeamSize() {

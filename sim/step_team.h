@@ -1,6 +1,7 @@
 #pragma once
 
 #include <atomic>
+#include <chrono>
 #include <cstdint>
 #include <exception>
 #include <functional>
@@ -19,7 +20,8 @@ namespace dg::sim {
 //    runs on the last worker to arrive before any leaves;
 //  - in every pass worker w starts on its home range of chunks (the same
 //    chunks every step, so their data stay in that core's cache) and then
-//    takes what is left of the others' ranges;
+//    takes what is left of the others' ranges, leaving a working owner the
+//    chunks it would finish before a taken one is done (the reserve, below);
 //  - the caller is worker 0; workers 1.. are tasks of the caller's TBB arena
 //    that join at the next barrier once a thread of the arena is free, and
 //    then stay for the rest of the run. A run never waits for a worker that
@@ -72,9 +74,16 @@ class StepTeam {
       std::atomic<int> next{0};
     };
     explicit State(int workers)
-        : claims(workers), join_request(workers), admitted(workers), admitted_generation(workers) {}
+        : claims(workers), take_cost(workers), join_request(workers), admitted(workers), admitted_generation(workers) {}
 
     std::vector<Claim> claims;  // per home range: the next of its chunks to hand out
+
+    // Per worker: what a chunk taken from another's range costs, in chunks of
+    // its own range, smoothed over the chunks it took (0: none taken yet).
+    struct alignas(64) TakeCost {
+      double own_chunks = 0;
+    };
+    std::vector<TakeCost> take_cost;
 
     // The run in progress: its id (0: none), its functions and its pass.
     std::atomic<std::uint32_t> run_id{0};
@@ -99,6 +108,16 @@ class StepTeam {
     alignas(64) std::atomic<std::uint32_t> generation{0};
     std::atomic<int> sleepers{0};
   };
+
+  // How many unclaimed chunks `taker` leaves in `owner`'s range: none if the
+  // owner is not in the run, else twice what one taken chunk costs the taker
+  // in chunks of its own range (each `own_ns` long), since the chunk's data
+  // cross cores twice: to the taker, and its results back to the owner's
+  // next pass. Taking a chunk the owner would reach before then only makes
+  // the pass end later (docs/solver.md, "Threads").
+  int Reserve(int taker, int owner, double own_ns) const;
+  // Folds the time a taken chunk took into the taker's cost estimate.
+  void RecordTake(int taker, double taken_ns, double own_ns);
 
   // Worker `worker`'s passes from the current one to the run's end.
   static void WorkPasses(State& state, int worker);
@@ -134,15 +153,30 @@ void StepTeam::ForEachChunk(int worker, int count, Body&& body) {
 template <typename Body>
 void StepTeam::ForEachChunk(int worker, std::span<const int> homes, Body&& body) {
   DG_CHECK(homes.size() == size_t(size_) + 1);
+  using Clock = std::chrono::steady_clock;
   std::vector<State::Claim>& claims = state_->claims;
-  for (int k = 0; k < size_; ++k) {
+  const Clock::time_point own_start = Clock::now();
+  int own_chunks = 0;
+  for (;;) {
+    const int chunk = homes[worker] + claims[worker].next.fetch_add(1, std::memory_order_relaxed);
+    if (chunk >= homes[worker + 1]) break;
+    body(chunk);
+    ++own_chunks;
+  }
+  if (size_ == 1) return;
+  const double own_ns =
+      own_chunks > 0 ? std::chrono::duration<double, std::nano>(Clock::now() - own_start).count() / own_chunks : 0;
+  for (int k = 1; k < size_; ++k) {
     const int owner = (worker + k) % size_;
-    const int begin = homes[owner];
-    const int end = homes[owner + 1];
+    const int range = homes[owner + 1] - homes[owner];
     for (;;) {
-      const int chunk = begin + claims[owner].next.fetch_add(1, std::memory_order_relaxed);
-      if (chunk >= end) break;
+      const int unclaimed = range - claims[owner].next.load(std::memory_order_relaxed);
+      if (unclaimed <= Reserve(worker, owner, own_ns)) break;
+      const int chunk = homes[owner] + claims[owner].next.fetch_add(1, std::memory_order_relaxed);
+      if (chunk >= homes[owner + 1]) break;
+      const Clock::time_point start = Clock::now();
       body(chunk);
+      RecordTake(worker, std::chrono::duration<double, std::nano>(Clock::now() - start).count(), own_ns);
     }
   }
 }
