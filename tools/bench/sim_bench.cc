@@ -6,6 +6,7 @@
 #include <memory>
 #include <numeric>
 #include <random>
+#include <thread>
 
 #include <nlohmann/json.hpp>
 #include <tbb/global_control.h>
@@ -195,7 +196,41 @@ SimBenchRecord Measure(const BenchProblem& problem, int threads, const SimBenchO
   const std::vector<double> rates =
       TimeRepeats(problem.mesh.num_tets(), StepsPerRepeat(options) * solver.substeps_per_step(), options.repeats,
                   [&](int steps) { solver.Advance(steps / solver.substeps_per_step(), targets); });
-  return MakeRecord<T>(problem.name, problem.mesh, threads, "forward", rates, problem.stability, options);
+  SimBenchRecord record = MakeRecord<T>(problem.name, problem.mesh, threads, "forward", rates, problem.stability, options);
+  if (threads > 1) {
+    const std::vector<double> apart = MeasureNothingShared<T>(problem, threads, options);
+    record.nothing_shared_tet_steps_per_s = apart[apart.size() / 2];
+  }
+  return record;
+}
+
+// The same problem stepped by `threads` one-thread solvers at once, each on
+// its own model: what the machine gives this kernel on that many cores with
+// nothing shared, the ceiling for one solver on `threads` threads. Sorted
+// tet-steps per second, all solvers together.
+template <typename T>
+std::vector<double> MeasureNothingShared(const BenchProblem& problem, int threads, const SimBenchOptions& options) {
+  sim::SolverOptions solver_options;
+  solver_options.dt_s = options.dt_s;
+  solver_options.threads = 1;
+  std::vector<std::unique_ptr<sim::TledSolver<T>>> solvers;
+  for (int t = 0; t < threads; ++t) {
+    solvers.push_back(std::make_unique<sim::TledSolver<T>>(
+        std::make_shared<const sim::TledModel<T>>(problem.mesh, sim::Material{}, 1), problem.conditions,
+        solver_options, &problem.stability));
+  }
+  const std::vector<double> targets(problem.conditions.prescribed_dofs.size(), -kPressDown_m);
+  const int substeps = solvers.front()->substeps_per_step();
+  return TimeRepeats(threads * problem.mesh.num_tets(), StepsPerRepeat(options) * substeps, options.repeats,
+                     [&](int steps) {
+                       std::vector<std::thread> running;
+                       for (auto& solver : solvers) {
+                         running.emplace_back([&solver, &targets, steps, substeps] {
+                           solver->Advance(steps / substeps, targets);
+                         });
+                       }
+                       for (std::thread& thread : running) thread.join();
+                     });
 }
 
 // The image-constrained simulation in one mode on the phantom, its
@@ -348,6 +383,7 @@ void WriteSimBenchJson(const std::string& path, const std::vector<SimBenchRecord
                                            {"tet_steps_per_s_max", Significant(r.tet_steps_per_s_max, 6)},
                                            {"speedup_over_1_thread", Significant(r.speedup_over_1_thread, 4)},
                                            {"barrier_ns", Significant(r.barrier_ns, 4)},
+                                           {"nothing_shared_tet_steps_per_s", Significant(r.nothing_shared_tet_steps_per_s, 6)},
                                            {"realtime_factor", Significant(r.realtime_factor, 6)},
                                            {"dt_s", Significant(r.dt_s, 6)},
                                            {"dt_critical_s", Significant(r.dt_critical_s, 6)},
@@ -365,10 +401,11 @@ void WriteSimBenchJson(const std::string& path, const std::vector<SimBenchRecord
 std::string SimBenchTable(const std::vector<SimBenchRecord>& records) {
   std::string table =
       "| mode | mesh | tets | nodes | precision | threads | M tet-steps/s (median) | min-max | x 1 thread | "
-      "barrier ns | real-time factor | concurrent gain | inverse every | motion error um | dt_cr ms |\n"
-      "|---|---|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
+      "barrier ns | nothing shared M | real-time factor | concurrent gain | inverse every | motion error um | dt_cr ms |\n"
+      "|---|---|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
   for (const SimBenchRecord& r : records) {
-    char gain[16] = "-", speedup[16] = "-", barrier[16] = "-", interval[16] = "-", error[16] = "-";
+    char gain[16] = "-", speedup[16] = "-", barrier[16] = "-", interval[16] = "-", error[16] = "-", apart[16] = "-";
+    if (r.nothing_shared_tet_steps_per_s > 0) std::snprintf(apart, sizeof apart, "%.1f", r.nothing_shared_tet_steps_per_s / 1e6);
     if (r.concurrent_gain > 0) std::snprintf(gain, sizeof gain, "%.2f", r.concurrent_gain);
     if (r.inverse_interval_steps > 0) {
       std::snprintf(interval, sizeof interval, "%d", r.inverse_interval_steps);
@@ -376,10 +413,10 @@ std::string SimBenchTable(const std::vector<SimBenchRecord>& records) {
     }
     if (r.speedup_over_1_thread > 0) std::snprintf(speedup, sizeof speedup, "%.2f", r.speedup_over_1_thread);
     if (r.barrier_ns > 0) std::snprintf(barrier, sizeof barrier, "%.0f", r.barrier_ns);
-    table += Printed("| %s | %s | %d | %d | %s | %d | %.1f | %.1f-%.1f | %s | %s | %.2f | %s | %s | %s | %.3f |\n",
+    table += Printed("| %s | %s | %d | %d | %s | %d | %.1f | %.1f-%.1f | %s | %s | %s | %.2f | %s | %s | %s | %.3f |\n",
                      r.mode.c_str(), r.mesh.c_str(), r.mesh_tets, r.mesh_nodes, sim::ToString(r.precision).c_str(), r.threads,
                      r.tet_steps_per_s / 1e6, r.tet_steps_per_s_min / 1e6, r.tet_steps_per_s_max / 1e6, speedup,
-                     barrier, r.realtime_factor, gain, interval, error, r.dt_critical_s * 1e3);
+                     barrier, apart, r.realtime_factor, gain, interval, error, r.dt_critical_s * 1e3);
   }
   return table;
 }
