@@ -28,8 +28,8 @@ namespace dg::sim {
 // Blocks, for SIMD: elements are grouped in blocks of kLanes (one 64-byte
 // register of T); within a block every quantity is stored lane-contiguous
 // ("structure of arrays"), so the kernel computes kLanes elements per
-// instruction. Elements are ordered by their smallest layout node so that a
-// block's nodes lie close together in memory; a part's last block is padded
+// instruction. Elements are ordered by their smallest node on the Morton
+// curve so that a block's nodes lie close together in memory; a part's last block is padded
 // with zero-volume elements on the part's first node, which produce no force. Only dN/dX of corners
 // 1..3 are stored: dN0/dX = -(dN1 + dN2 + dN3)/dX since the shape functions sum to one.
 //
@@ -37,8 +37,11 @@ namespace dg::sim {
 // into `parts` ranges, one per worker of a step team, and each part's blocks
 // hold every element that touches its nodes, so that the elements on a cut
 // appear once in each part they touch (the halo). A node gathers only from its
-// own part's copies: the forces a worker sums are the ones it computed. With
-// one part the layout is the plain one above.
+// own part's copies: the forces a worker sums are the ones it computed. The
+// nodes that other parts read then move to their part's ends, so that what
+// crosses between cores fills few cache lines; the element order stays the
+// one above, so a node sums its forces in the same order for any number of
+// parts. With one part the layout is the plain Morton one.
 //
 // Thread-safe to share read-only between any number of solvers.
 
