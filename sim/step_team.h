@@ -155,7 +155,7 @@ void StepTeam::ForEachChunk(int worker, std::span<const int> homes, Body&& body)
   DG_CHECK(homes.size() == size_t(size_) + 1);
   using Clock = std::chrono::steady_clock;
   std::vector<State::Claim>& claims = state_->claims;
-  const Clock::time_point own_start = Clock::now();
+  const Clock::time_point own_start = size_ > 1 ? Clock::now() : Clock::time_point{};
   int own_chunks = 0;
   for (;;) {
     const int chunk = homes[worker] + claims[worker].next.fetch_add(1, std::memory_order_relaxed);

@@ -185,25 +185,6 @@ SimBenchRecord MakeRecord(const std::string& name, const sim::TetMesh& mesh, int
   return record;
 }
 
-template <typename T>
-SimBenchRecord Measure(const BenchProblem& problem, int threads, const SimBenchOptions& options) {
-  tbb::global_control parallelism(tbb::global_control::max_allowed_parallelism, threads);
-  sim::SolverOptions solver_options;
-  solver_options.dt_s = options.dt_s;
-  sim::TledSolver<T> solver(std::make_shared<const sim::TledModel<T>>(problem.mesh, sim::Material{}),
-                            problem.conditions, solver_options, &problem.stability);
-  const std::vector<double> targets(problem.conditions.prescribed_dofs.size(), -kPressDown_m);
-  const std::vector<double> rates =
-      TimeRepeats(problem.mesh.num_tets(), StepsPerRepeat(options) * solver.substeps_per_step(), options.repeats,
-                  [&](int steps) { solver.Advance(steps / solver.substeps_per_step(), targets); });
-  SimBenchRecord record = MakeRecord<T>(problem.name, problem.mesh, threads, "forward", rates, problem.stability, options);
-  if (threads > 1) {
-    const std::vector<double> apart = MeasureNothingShared<T>(problem, threads, options);
-    record.nothing_shared_tet_steps_per_s = apart[apart.size() / 2];
-  }
-  return record;
-}
-
 // The same problem stepped by `threads` one-thread solvers at once, each on
 // its own model: what the machine gives this kernel on that many cores with
 // nothing shared, the ceiling for one solver on `threads` threads. Sorted
@@ -231,6 +212,25 @@ std::vector<double> MeasureNothingShared(const BenchProblem& problem, int thread
                        }
                        for (std::thread& thread : running) thread.join();
                      });
+}
+
+template <typename T>
+SimBenchRecord Measure(const BenchProblem& problem, int threads, const SimBenchOptions& options) {
+  tbb::global_control parallelism(tbb::global_control::max_allowed_parallelism, threads);
+  sim::SolverOptions solver_options;
+  solver_options.dt_s = options.dt_s;
+  sim::TledSolver<T> solver(std::make_shared<const sim::TledModel<T>>(problem.mesh, sim::Material{}),
+                            problem.conditions, solver_options, &problem.stability);
+  const std::vector<double> targets(problem.conditions.prescribed_dofs.size(), -kPressDown_m);
+  const std::vector<double> rates =
+      TimeRepeats(problem.mesh.num_tets(), StepsPerRepeat(options) * solver.substeps_per_step(), options.repeats,
+                  [&](int steps) { solver.Advance(steps / solver.substeps_per_step(), targets); });
+  SimBenchRecord record = MakeRecord<T>(problem.name, problem.mesh, threads, "forward", rates, problem.stability, options);
+  if (threads > 1) {
+    const std::vector<double> apart = MeasureNothingShared<T>(problem, threads, options);
+    record.nothing_shared_tet_steps_per_s = apart[apart.size() / 2];
+  }
+  return record;
 }
 
 // The image-constrained simulation in one mode on the phantom, its
