@@ -164,8 +164,10 @@ void StepTeam::ForEachChunk(int worker, std::span<const int> homes, Body&& body)
     ++own_chunks;
   }
   if (size_ == 1) return;
-  const double own_ns =
-      own_chunks > 0 ? std::chrono::duration<double, std::nano>(Clock::now() - own_start).count() / own_chunks : 0;
+  auto nanoseconds_since = [](Clock::time_point start) {
+    return std::chrono::duration<double, std::nano>(Clock::now() - start).count();
+  };
+  const double own_ns = own_chunks > 0 ? nanoseconds_since(own_start) / own_chunks : 0;
   for (int k = 1; k < size_; ++k) {
     const int owner = (worker + k) % size_;
     const int range = homes[owner + 1] - homes[owner];
@@ -176,7 +178,7 @@ void StepTeam::ForEachChunk(int worker, std::span<const int> homes, Body&& body)
       if (chunk >= homes[owner + 1]) break;
       const Clock::time_point start = Clock::now();
       body(chunk);
-      RecordTake(worker, std::chrono::duration<double, std::nano>(Clock::now() - start).count(), own_ns);
+      RecordTake(worker, nanoseconds_since(start), own_ns);
     }
   }
 }

@@ -29,9 +29,10 @@ namespace dg::sim {
 // register of T); within a block every quantity is stored lane-contiguous
 // ("structure of arrays"), so the kernel computes kLanes elements per
 // instruction. Elements are ordered by their smallest node on the Morton
-// curve so that a block's nodes lie close together in memory; a part's last block is padded
-// with zero-volume elements on the part's first node, which produce no force. Only dN/dX of corners
-// 1..3 are stored: dN0/dX = -(dN1 + dN2 + dN3)/dX since the shape functions sum to one.
+// curve so that a block's nodes lie close together in memory; a part's last
+// block is padded with zero-volume elements on the part's first node, which
+// produce no force. Only dN/dX of corners 1..3 are stored:
+// dN0/dX = -(dN1 + dN2 + dN3)/dX since the shape functions sum to one.
 //
 // Parts, for threads (docs/solver.md, "Subdomains"): the layout nodes are cut
 // into `parts` ranges, one per worker of a step team, and each part's blocks
