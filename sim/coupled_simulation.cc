@@ -156,46 +156,50 @@ void CoupledSimulation<T>::AdvanceCoupled(int steps) {
   const ChunkHomes& homes = solver.homes_;
   std::vector<int> both_sides_homes(homes.elements.size());
   for (size_t w = 0; w < homes.elements.size(); ++w) both_sides_homes[w] = 2 * homes.elements[w];
-  // Concurrent: two passes a step, both sides' elements (their chunks
-  // interleaved, so that a worker's home range holds both sides' elements of
-  // the same nodes), then both sides' nodes (one walk over each node's
-  // incidences gathers both sides' forces, the sums GatherNodalForce forms).
-  // Sequential: the forward step's two passes, then the inverse side's.
-  // A step without inverse work has the forward step's passes only (and two
-  // empty ones when sequential).
-  const int passes_per_step = options_.concurrent ? 2 : 4;
+  // Each side's step is one pass of StepTeam::ForEachChunkThen: elements,
+  // then nodes. Concurrent: one pass a step for both sides, their element
+  // chunks interleaved (so that a worker's home range holds both sides'
+  // elements of the same nodes), then both sides' nodes (one walk over each
+  // node's incidences gathers both sides' forces, the sums GatherNodalForce
+  // forms). Sequential: the forward side's pass, then the inverse side's.
+  // A step without inverse work has the forward side's pass only (and an
+  // empty one when sequential).
+  const int passes_per_step = options_.concurrent ? 1 : 2;
   const long long first_step = steps_;
   auto pass = [&](int worker, int p) {
-    const int phase = p % passes_per_step;
+    const bool second = p % passes_per_step == 1;
     const double fraction_end = double(p / passes_per_step + 1) / steps;
     const bool with_inverse = runs_inverse(first_step + p / passes_per_step);
-    if (options_.concurrent && phase == 0 && with_inverse) {
-      team_->ForEachChunk(worker, both_sides_homes, [&](int c) {
-        if (c % 2 == 0) {
-          solver.ElementChunk(c / 2);
-        } else {
-          inverse.ElementChunk(c / 2);
-        }
-      });
-    } else if (options_.concurrent && phase == 1 && with_inverse) {
-      team_->ForEachChunk(worker, homes.nodes, [&](int c) {
-        const int begin = c * kNodesPerChunk, end = std::min(begin + kNodesPerChunk, model.num_nodes());
-        T forward_forces[3 * kNodesPerChunk], inverse_forces[3 * kNodesPerChunk];
-        for (int a = begin; a < end; ++a) {
-          GatherNodalForces(model, solver.element_forces_.data(), inverse.element_forces_.data(), a,
-                            &forward_forces[3 * (a - begin)], &inverse_forces[3 * (a - begin)]);
-        }
-        solver.NodeChunk(c, fraction_end, forward_forces);
-        inverse.NodeChunk(c, inverse_forces);
-      });
-    } else if (phase == 0) {
-      team_->ForEachChunk(worker, homes.elements, [&](int c) { solver.ElementChunk(c); });
-    } else if (phase == 1) {
-      team_->ForEachChunk(worker, homes.nodes, [&](int c) { solver.NodeChunk(c, fraction_end); });
-    } else if (phase == 2 && with_inverse) {
-      team_->ForEachChunk(worker, homes.elements, [&](int c) { inverse.ElementChunk(c); });
-    } else if (phase == 3 && with_inverse) {
-      team_->ForEachChunk(worker, homes.nodes, [&](int c) { inverse.NodeChunk(c); });
+    if (options_.concurrent && with_inverse) {
+      team_->ForEachChunkThen(
+          worker, both_sides_homes,
+          [&](int c) {
+            if (c % 2 == 0) {
+              solver.ElementChunk(c / 2);
+            } else {
+              inverse.ElementChunk(c / 2);
+            }
+          },
+          homes.nodes,
+          [&](int c) {
+            const int begin = c * kNodesPerChunk, end = std::min(begin + kNodesPerChunk, model.num_nodes());
+            T forward_forces[3 * kNodesPerChunk], inverse_forces[3 * kNodesPerChunk];
+            for (int a = begin; a < end; ++a) {
+              GatherNodalForces(model, solver.element_forces_.data(), inverse.element_forces_.data(), a,
+                                &forward_forces[3 * (a - begin)], &inverse_forces[3 * (a - begin)]);
+            }
+            solver.NodeChunk(c, fraction_end, forward_forces);
+            inverse.NodeChunk(c, inverse_forces);
+          },
+          homes.nodes_wait_for);
+    } else if (!second) {
+      team_->ForEachChunkThen(
+          worker, homes.elements, [&](int c) { solver.ElementChunk(c); }, homes.nodes,
+          [&](int c) { solver.NodeChunk(c, fraction_end); }, homes.nodes_wait_for);
+    } else if (with_inverse) {
+      team_->ForEachChunkThen(
+          worker, homes.elements, [&](int c) { inverse.ElementChunk(c); }, homes.nodes,
+          [&](int c) { inverse.NodeChunk(c); }, homes.nodes_wait_for);
     }
   };
   // The step's end: the inverse side's checks, the next step's loads, the

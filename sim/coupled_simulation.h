@@ -39,9 +39,9 @@ struct CoupledOptions {
 //   inverse:  when j = 0, level a + 2 of InverseSimulation (w_{a+2} at step
 //             (a + 2) k; motion model Um at the phase clock's phase, which is
 //             phase_at_start + t / period until SteerPhase() steers it).
-// The two are independent, so with `concurrent` they run side by side: each
-// of the step's two passes (elements, then nodes) is one pass of a StepTeam
-// over both sides' fixed chunks, two barriers per step, however many threads.
+// The two are independent, so with `concurrent` they run side by side: the
+// step is one pass of a StepTeam over both sides' fixed chunks (elements,
+// then nodes), one barrier per step, however many threads.
 // Only three motion-model levels and three weight sets are kept. Every partial
 // sum runs in fixed chunks, so results are bitwise the same for any thread
 // The mesh starts in the motion model's geometry at t = 0 with its velocity

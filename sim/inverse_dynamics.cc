@@ -124,7 +124,7 @@ InverseSimulation<T>::InverseSimulation(std::shared_ptr<const TledModel<T>> mode
   for (auto& level : motion_levels_) level.assign(3 * size_t(N), T(0));
   element_forces_.assign(model_->force_array_size(), T(0));
   edge_inverse_.assign(size_t(model_->num_blocks()) * 9 * TledModel<T>::kLanes, T(0));
-  scaled_forces_.assign(3 * size_t(N), T(0));
+  for (std::vector<T>& level : scaled_forces_) level.assign(3 * size_t(N), T(0));
   for (AlignedVector<T>& level : weights_) level.assign(model_->force_array_size(), T(0));
   chunk_min_J_.assign(model_->element_chunks(), T(1));
   chunk_min_ratio_.assign(model_->element_chunks(), T(1));
@@ -155,7 +155,8 @@ template <typename T>
 void InverseSimulation<T>::ElementChunk(int chunk) {
   const int begin = model_->chunk_block_begin(chunk), end = model_->chunk_block_begin(chunk + 1);
   // The pass resolves the level before the pending one.
-  ResolveBuffers<T> resolve{edge_inverse_.data(), scaled_forces_.data(), weights_[Slot(pending_level_ - 1)].data()};
+  ResolveBuffers<T> resolve{edge_inverse_.data(), scaled_forces_[Parity(pending_level_ - 1)].data(),
+                           weights_[Slot(pending_level_ - 1)].data()};
   chunk_min_J_[chunk] = ComputeElementForcesAndResolve(*model_, motion_levels_[Slot(pending_level_)].data(), &resolve,
                                                        element_forces_.data(), begin, end);
   chunk_min_ratio_[chunk] = resolve.min_volume_ratio;
@@ -171,6 +172,7 @@ void InverseSimulation<T>::NodeChunk(int chunk, const T* gathered) {
   gathered = ChunkNodalForces(model, element_forces_.data(), begin, end, gathered, own);
   const size_t first = 3 * size_t(begin), count = 3 * size_t(end - begin);
   const long long step = pending_level_ * interval_steps_;
+  T* scaled_forces = scaled_forces_[Parity(pending_level_)].data();
   T* next_level = motion_levels_[Slot(pending_level_ + 1)].data() + first;
   motion_.Evaluate<T>(PhaseOfStep(step + interval_steps_), static_cast<int>(first), std::span<T>(next_level, count));
   // The stencil one step either side: the neighbouring levels when they are one step apart.
@@ -189,7 +191,7 @@ void InverseSimulation<T>::NodeChunk(int chunk, const T* gathered) {
     for (int i = 0; i < 3; ++i) {
       const size_t local = 3 * size_t(a - begin) + i, dof = first + local;
       const T increment = (u_next[local] - u[local]) - increment_decay_ * (u[local] - u_prev[local]);
-      scaled_forces_[dof] = (f[i] + inertia_gain_[a] * increment - gravity_force_[dof]) * inverse_count_[a];
+      scaled_forces[dof] = (f[i] + inertia_gain_[a] * increment - gravity_force_[dof]) * inverse_count_[a];
     }
   }
 }

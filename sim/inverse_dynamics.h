@@ -128,6 +128,7 @@ class InverseSimulation {
   friend class CoupledSimulation;
 
   int Slot(long long level) const { return static_cast<int>(((level % 3) + 3) % 3); }
+  int Parity(long long level) const { return static_cast<int>(((level % 2) + 2) % 2); }
   double PhaseOfStep(long long step) const { return clock_.PhaseAt(step); }
 
   std::shared_ptr<const TledModel<T>> model_;
@@ -144,7 +145,10 @@ class InverseSimulation {
   std::vector<T> motion_levels_[3];  // ring indexed by level % 3
   AlignedVector<T> element_forces_;  // at the pending level
   AlignedVector<T> edge_inverse_;    // rows of D^-1 at the last element pass's level
-  std::vector<T> scaled_forces_;     // r / n_a (3 per node) at the level before the pending one
+  // r / n_a (3 per node) of a level, indexed by level % 2: a node chunk writes
+  // the pending level's while element chunks of other parts, in the same pass,
+  // still resolve the level before (StepTeam::ForEachChunkThen).
+  std::vector<T> scaled_forces_[2];
   AlignedVector<T> weights_[3];      // ring indexed by level % 3
   std::vector<T> chunk_min_J_, chunk_min_ratio_;
   int chunk_node_count_ = 0;

@@ -71,7 +71,7 @@ void StepTeam::Run(int passes, const std::function<void(int worker, int pass)>& 
   s.failed = false;
   s.error = nullptr;
   s.members = 1;
-  for (State::Claim& claim : s.claims) claim.next.store(0, std::memory_order_relaxed);
+  ResetClaims(s);
   const std::uint32_t id = ++s.last_run_id == 0 ? ++s.last_run_id : s.last_run_id;
   s.run_id.store(id, std::memory_order_seq_cst);
   for (int worker = 1; worker < size_; ++worker) {
@@ -152,15 +152,32 @@ void StepTeam::EndPass(State& s) {
       }
     }
   }
-  for (State::Claim& claim : s.claims) claim.next.store(0, std::memory_order_relaxed);
+  ResetClaims(s);
+}
+
+void StepTeam::ResetClaims(State& s) {
+  for (State::Claim& claim : s.claims) {
+    for (std::atomic<int>& next : claim.next) next.store(0, std::memory_order_relaxed);
+    claim.first_done.store(0, std::memory_order_relaxed);
+  }
+}
+
+void StepTeam::Backoff(int waits) {
+  if (waits < kSpinPauses) {
+    CpuRelax();
+  } else {
+    std::this_thread::yield();  // the chunk's worker may be waiting for this core
+  }
+}
+
+bool StepTeam::InRun(int worker) const {
+  const State& s = *state_;
+  return worker == 0 || s.admitted[worker].load(std::memory_order_relaxed) == s.run_id.load(std::memory_order_relaxed);
 }
 
 int StepTeam::Reserve(int taker, int owner, double own_ns) const {
-  const State& s = *state_;
-  const bool owner_in_run =
-      owner == 0 || s.admitted[owner].load(std::memory_order_relaxed) == s.run_id.load(std::memory_order_relaxed);
-  if (!owner_in_run || own_ns <= 0) return 0;
-  return static_cast<int>(2 * s.take_cost[taker].own_chunks);
+  if (!InRun(owner) || own_ns <= 0) return 0;
+  return static_cast<int>(2 * state_->take_cost[taker].own_chunks);
 }
 
 void StepTeam::RecordTake(int taker, double taken_ns, double own_ns) {

@@ -66,17 +66,33 @@ class StepTeam {
   template <typename Body>
   void ForEachChunk(int worker, int count, Body&& body);
 
+  // Which `first` chunks a range's `then` chunks wait for (ForEachChunkThen).
+  enum class ThenWaitsFor {
+    kOwnRange,   // range w's `then` chunks read only what range w's `first` chunks wrote
+    kAllRanges,  // they may read what any `first` chunk wrote
+  };
+  // Inside a pass, two phases: first(c) for every chunk of first_homes, then
+  // then(c) for every chunk of then_homes, each exactly once over the team,
+  // homes and taking as in ForEachChunk. A range's `then` chunks start once
+  // the `first` chunks they wait for are done. With kOwnRange one pass and
+  // one barrier do what two passes did: a worker goes on to its own second
+  // phase as soon as its own first phase is done (docs/solver.md, "Threads").
+  template <typename First, typename Then>
+  void ForEachChunkThen(int worker, std::span<const int> first_homes, First&& first,
+                        std::span<const int> then_homes, Then&& then, ThenWaitsFor waits);
+
  private:
   // Everything a run shares, owned jointly by the team and the tasks it
   // enqueued (a task may start after its run, or its team, has ended).
   struct State {
     struct alignas(64) Claim {
-      std::atomic<int> next{0};
+      std::atomic<int> next[2] = {0, 0};  // per phase: the next of the range's chunks to hand out
+      std::atomic<int> first_done{0};      // the range's first-phase chunks done (ForEachChunkThen)
     };
     explicit State(int workers)
         : claims(workers), take_cost(workers), join_request(workers), admitted(workers), admitted_generation(workers) {}
 
-    std::vector<Claim> claims;  // per home range: the next of its chunks to hand out
+    std::vector<Claim> claims;  // per home range, reset for every pass
 
     // Per worker: what a chunk taken from another's range costs, in chunks of
     // its own range, smoothed over the chunks it took (0: none taken yet).
@@ -116,8 +132,33 @@ class StepTeam {
   // next pass. Taking a chunk the owner would reach before then only makes
   // the pass end later (docs/solver.md, "Threads").
   int Reserve(int taker, int owner, double own_ns) const;
+  // Whether worker `worker` works on the current run.
+  bool InRun(int worker) const;
   // Folds the time a taken chunk took into the taker's cost estimate.
   void RecordTake(int taker, double taken_ns, double own_ns);
+
+  using Clock = std::chrono::steady_clock;
+  struct OwnChunks {
+    int count = 0;
+    double mean_ns = 0;  // 0 in a team of one, which does not time them
+  };
+  // Runs the chunks of `worker`'s own range of `phase` until none is left.
+  template <typename Body>
+  OwnChunks RunOwn(int worker, int phase, std::span<const int> homes, Body& body);
+  // Then takes chunks of the other ranges of `phase`, from those `ready` says
+  // may start, leaving each working owner its reserve. `count_first_done`:
+  // a taken chunk counts towards its range's first_done.
+  template <typename Body, typename Ready>
+  void TakeOthers(int worker, int phase, std::span<const int> homes, double own_ns, Body& body, Ready&& ready,
+                  bool count_first_done);
+  // Spins, then yields, until ready(): for a chunk a working thread is finishing.
+  template <typename Ready>
+  static void WaitUntil(Ready&& ready) {
+    for (int waits = 0; !ready(); ++waits) Backoff(waits);
+  }
+  static void Backoff(int waits);
+  // Clears every range's claims and counts for the next pass.
+  static void ResetClaims(State& state);
 
   // Worker `worker`'s passes from the current one to the run's end.
   static void WorkPasses(State& state, int worker);
@@ -153,32 +194,85 @@ void StepTeam::ForEachChunk(int worker, int count, Body&& body) {
 template <typename Body>
 void StepTeam::ForEachChunk(int worker, std::span<const int> homes, Body&& body) {
   DG_CHECK(homes.size() == size_t(size_) + 1);
-  using Clock = std::chrono::steady_clock;
+  const OwnChunks own = RunOwn(worker, 0, homes, body);
+  if (size_ > 1) TakeOthers(worker, 0, homes, own.mean_ns, body, [](int) { return true; }, false);
+}
+
+template <typename First, typename Then>
+void StepTeam::ForEachChunkThen(int worker, std::span<const int> first_homes, First&& first,
+                                std::span<const int> then_homes, Then&& then, ThenWaitsFor waits) {
+  DG_CHECK(first_homes.size() == size_t(size_) + 1 && then_homes.size() == size_t(size_) + 1);
   std::vector<State::Claim>& claims = state_->claims;
-  const Clock::time_point own_start = size_ > 1 ? Clock::now() : Clock::time_point{};
-  int own_chunks = 0;
+  auto first_done = [&](int range) {
+    return claims[range].first_done.load(std::memory_order_acquire) == first_homes[range + 1] - first_homes[range];
+  };
+  auto all_first_done = [&] {
+    for (int range = 0; range < size_; ++range) {
+      if (!first_done(range)) return false;
+    }
+    return true;
+  };
+  auto any = [](int) { return true; };
+  const OwnChunks own_first = RunOwn(worker, 0, first_homes, first);
+  claims[worker].first_done.fetch_add(own_first.count, std::memory_order_release);
+  if (size_ == 1) {
+    RunOwn(worker, 1, then_homes, then);
+    return;
+  }
+  if (waits == ThenWaitsFor::kAllRanges) {
+    TakeOthers(worker, 0, first_homes, own_first.mean_ns, first, any, true);
+    WaitUntil(all_first_done);
+  } else {
+    // Only a chunk of this range that another worker took can still be running.
+    WaitUntil([&] { return first_done(worker); });
+  }
+  const OwnChunks own_then = RunOwn(worker, 1, then_homes, then);
+  if (waits == ThenWaitsFor::kOwnRange) TakeOthers(worker, 0, first_homes, own_first.mean_ns, first, any, true);
+  // Second-phase chunks are taken only from an owner not in the run. A taken
+  // chunk's results are what its owner reads first in the next pass (a node
+  // chunk writes the next state of its part's nodes): taking one from a
+  // working owner slows the owner's next pass, which the taker's timing does
+  // not see, so the next pass is more out of balance and more is taken
+  // (docs/solver.md, "Threads"). A range whose first phase is still running
+  // is left to whoever finishes its last chunk.
+  TakeOthers(worker, 1, then_homes, own_then.mean_ns, then,
+             [&](int owner) { return !InRun(owner) && first_done(owner); }, false);
+}
+
+template <typename Body>
+StepTeam::OwnChunks StepTeam::RunOwn(int worker, int phase, std::span<const int> homes, Body& body) {
+  std::atomic<int>& next = state_->claims[worker].next[phase];
+  const Clock::time_point start = size_ > 1 ? Clock::now() : Clock::time_point{};
+  OwnChunks own;
   for (;;) {
-    const int chunk = homes[worker] + claims[worker].next.fetch_add(1, std::memory_order_relaxed);
+    const int chunk = homes[worker] + next.fetch_add(1, std::memory_order_relaxed);
     if (chunk >= homes[worker + 1]) break;
     body(chunk);
-    ++own_chunks;
+    ++own.count;
   }
-  if (size_ == 1) return;
-  auto nanoseconds_since = [](Clock::time_point start) {
-    return std::chrono::duration<double, std::nano>(Clock::now() - start).count();
-  };
-  const double own_ns = own_chunks > 0 ? nanoseconds_since(own_start) / own_chunks : 0;
+  if (size_ > 1 && own.count > 0) {
+    own.mean_ns = std::chrono::duration<double, std::nano>(Clock::now() - start).count() / own.count;
+  }
+  return own;
+}
+
+template <typename Body, typename Ready>
+void StepTeam::TakeOthers(int worker, int phase, std::span<const int> homes, double own_ns, Body& body,
+                          Ready&& ready, bool count_first_done) {
   for (int k = 1; k < size_; ++k) {
     const int owner = (worker + k) % size_;
+    if (!ready(owner)) continue;
+    State::Claim& claim = state_->claims[owner];
     const int range = homes[owner + 1] - homes[owner];
     for (;;) {
-      const int unclaimed = range - claims[owner].next.load(std::memory_order_relaxed);
+      const int unclaimed = range - claim.next[phase].load(std::memory_order_relaxed);
       if (unclaimed <= Reserve(worker, owner, own_ns)) break;
-      const int chunk = homes[owner] + claims[owner].next.fetch_add(1, std::memory_order_relaxed);
+      const int chunk = homes[owner] + claim.next[phase].fetch_add(1, std::memory_order_relaxed);
       if (chunk >= homes[owner + 1]) break;
       const Clock::time_point start = Clock::now();
       body(chunk);
-      RecordTake(worker, nanoseconds_since(start), own_ns);
+      if (count_first_done) claim.first_done.fetch_add(1, std::memory_order_release);
+      RecordTake(worker, std::chrono::duration<double, std::nano>(Clock::now() - start).count(), own_ns);
     }
   }
 }

@@ -233,6 +233,7 @@ ChunkHomes PartitionChunks(const TledModel<T>& model, int parts) {
     ChunkHomes homes;
     homes.elements.assign(model.part_chunk_begin().begin(), model.part_chunk_begin().end());
     for (int node : model.part_node_begin()) homes.nodes.push_back((node + kNodesPerChunk - 1) / kNodesPerChunk);
+    homes.nodes_wait_for = StepTeam::ThenWaitsFor::kOwnRange;
     return homes;
   }
   const int element_chunks = model.element_chunks(), node_chunks = NodeChunks(model);

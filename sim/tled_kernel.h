@@ -5,6 +5,7 @@
 #include <span>
 #include <vector>
 
+#include "sim/step_team.h"
 #include "sim/tled_model.h"
 
 namespace dg::sim {
@@ -80,6 +81,9 @@ int NodeChunks(const TledModel<T>& model) {
 // nodes: a node then gathers mostly forces from its own core's cache.
 struct ChunkHomes {
   std::vector<int> elements, nodes;
+  // What a worker's node chunks wait for in a step's single pass: its own
+  // element chunks (the model's parts) or all of them.
+  StepTeam::ThenWaitsFor nodes_wait_for = StepTeam::ThenWaitsFor::kAllRanges;
 };
 template <typename T>
 ChunkHomes PartitionChunks(const TledModel<T>& model, int parts);
@@ -123,8 +127,8 @@ inline void GatherNodalForce(const TledModel<T>& model, const T* forces, int a, 
 }
 
 // The nodal forces of the chunk of nodes [begin, end), 3 per node: `gathered`
-// when the caller gathered them already (GatherNodalForces for two passes at
-// once), else gathered here into `own` (room for 3 (end - begin)).
+// when the caller gathered them already (GatherNodalForces for both sides of
+// a coupled step at once), else gathered here into `own` (room for 3 (end - begin)).
 template <typename T>
 inline const T* ChunkNodalForces(const TledModel<T>& model, const T* forces, int begin, int end, const T* gathered,
                                  T* own) {

@@ -219,24 +219,20 @@ void TledSolver<T>::SetTargets(std::span<const double> targets_m) {
 template <typename T>
 void TledSolver<T>::Advance(int steps, std::span<const double> targets_m) {
   SetTargets(targets_m);
-  // Two passes a step: elements (even), then nodes (odd), whose serial end
-  // finishes and checks the step.
+  // One pass a step: elements, then nodes, whose serial end finishes and
+  // checks the step.
   const int total = steps * substeps_;
   team_->Run(
-      2 * total,
-      [&](int worker, int pass) {
-        if (pass % 2 == 0) {
-          team_->ForEachChunk(worker, homes_.elements, [&](int c) { ElementChunk(c); });
-        } else {
-          const double fraction_end = double(pass / 2 + 1) / total;
-          team_->ForEachChunk(worker, homes_.nodes, [&](int c) { NodeChunk(c, fraction_end); });
-        }
+      total,
+      [&](int worker, int step) {
+        const double fraction_end = double(step + 1) / total;
+        team_->ForEachChunkThen(
+            worker, homes_.elements, [&](int c) { ElementChunk(c); }, homes_.nodes,
+            [&](int c) { NodeChunk(c, fraction_end); }, homes_.nodes_wait_for);
       },
-      [&](int pass) {
-        if (pass % 2 == 1) {
-          FinishStep();
-          CheckStep();
-        }
+      [&](int) {
+        FinishStep();
+        CheckStep();
         return true;
       });
 }

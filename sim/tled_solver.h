@@ -62,9 +62,9 @@ struct BoundaryConditions {
 // Threading: Advance() runs its steps on a StepTeam (one given, or its own of
 // options.threads, by default bounded by the caller's tbb::global_control;
 // docs/solver.md):
-// per step an element pass and a node pass over fixed chunks, each ended by
-// the team's barrier, the step's reductions and checks in the second
-// barrier's serial section. Results do not depend on the thread count. One
+// per step one pass of element chunks, then node chunks (each worker's node
+// chunks after the element chunks they gather from), ended by the team's
+// barrier, whose serial section does the step's reductions and checks. Results do not depend on the thread count. One
 // solver must not be advanced from two threads at once. Advance() allocates
 // nothing per step.
 template <typename T>
