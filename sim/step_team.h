@@ -73,10 +73,12 @@ class StepTeam {
   };
   // Inside a pass, two phases: first(c) for every chunk of first_homes, then
   // then(c) for every chunk of then_homes, each exactly once over the team,
-  // homes and taking as in ForEachChunk. A range's `then` chunks start once
-  // the `first` chunks they wait for are done. With kOwnRange one pass and
-  // one barrier do what two passes did: a worker goes on to its own second
-  // phase as soon as its own first phase is done (docs/solver.md, "Threads").
+  // each worker starting on its home ranges. `first` chunks are taken from
+  // other ranges as in ForEachChunk, `then` chunks only from a worker not in
+  // the run. A range's `then` chunks start once the `first` chunks they wait
+  // for are done. With kOwnRange one pass and one barrier do what two passes
+  // did: a worker goes on to its own second phase as soon as its own first
+  // phase is done (docs/solver.md, "Threads").
   template <typename First, typename Then>
   void ForEachChunkThen(int worker, std::span<const int> first_homes, First&& first,
                         std::span<const int> then_homes, Then&& then, ThenWaitsFor waits);
