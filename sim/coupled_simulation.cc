@@ -167,7 +167,7 @@ void CoupledSimulation<T>::AdvanceCoupled(int steps) {
   const int passes_per_step = options_.concurrent ? 1 : 2;
   const long long first_step = steps_;
   auto pass = [&](int worker, int p) {
-    const bool second = p % passes_per_step == 1;
+    const bool inverse_side_pass = p % passes_per_step == 1;  // sequential: the step's second pass
     const double fraction_end = double(p / passes_per_step + 1) / steps;
     const bool with_inverse = runs_inverse(first_step + p / passes_per_step);
     if (options_.concurrent && with_inverse) {
@@ -192,7 +192,7 @@ void CoupledSimulation<T>::AdvanceCoupled(int steps) {
             inverse.NodeChunk(c, inverse_forces);
           },
           homes.nodes_wait_for);
-    } else if (!second) {
+    } else if (!inverse_side_pass) {
       team_->ForEachChunkThen(
           worker, homes.elements, [&](int c) { solver.ElementChunk(c); }, homes.nodes,
           [&](int c) { solver.NodeChunk(c, fraction_end); }, homes.nodes_wait_for);
