@@ -37,7 +37,7 @@ namespace dg::sim {
 // tasks it enqueued are still queued: they find the run over and return.
 class StepTeam {
  public:
-  // The largest team ForEachChunk(worker, count, body) splits on the stack.
+  // The largest team.
   static constexpr int kMaxWorkers = 64;
 
   // workers in [1, kMaxWorkers]: the most that may work on a run. `launch`
@@ -57,15 +57,6 @@ class StepTeam {
   void Run(int passes, const std::function<void(int worker, int pass)>& pass,
            const std::function<bool(int pass)>& after);
 
-  // Inside a pass: body(chunk) for every chunk in [homes[0], homes[size()]),
-  // each exactly once over the team, worker w starting on its home range
-  // [homes[w], homes[w + 1]) (non-decreasing).
-  template <typename Body>
-  void ForEachChunk(int worker, std::span<const int> homes, Body&& body);
-  // The same with [0, count) split evenly.
-  template <typename Body>
-  void ForEachChunk(int worker, int count, Body&& body);
-
   // Which `first` chunks a range's `then` chunks wait for (ForEachChunkThen).
   enum class ThenWaitsFor {
     kOwnRange,   // range w's `then` chunks read only what range w's `first` chunks wrote
@@ -73,9 +64,9 @@ class StepTeam {
   };
   // Inside a pass, two phases: first(c) for every chunk of first_homes, then
   // then(c) for every chunk of then_homes, each exactly once over the team,
-  // each worker starting on its home ranges. `first` chunks are taken from
-  // other ranges as in ForEachChunk, `then` chunks only from a worker not in
-  // the run. A range's `then` chunks start once the `first` chunks they wait
+  // worker w starting on its home ranges [homes[w], homes[w + 1])
+  // (non-decreasing). `first` chunks are then taken from other ranges, less
+  // the reserve, `then` chunks only from a worker not in the run. A range's `then` chunks start once the `first` chunks they wait
   // for are done. With kOwnRange one pass and one barrier do what two passes
   // did: a worker goes on to its own second phase as soon as its own first
   // phase is done (docs/solver.md, "Threads").
@@ -184,21 +175,6 @@ using HelperLauncher = std::function<void(std::function<void()> work)>;
 // max_allowed_parallelism (set by tbb::global_control, e.g. --threads), at
 // most the current arena's concurrency.
 int DefaultTeamSize();
-
-template <typename Body>
-void StepTeam::ForEachChunk(int worker, int count, Body&& body) {
-  int homes[kMaxWorkers + 1];
-  DG_CHECK(size_ <= kMaxWorkers);
-  for (int w = 0; w <= size_; ++w) homes[w] = static_cast<int>(std::int64_t(count) * w / size_);
-  ForEachChunk(worker, std::span<const int>(homes, size_ + 1), std::forward<Body>(body));
-}
-
-template <typename Body>
-void StepTeam::ForEachChunk(int worker, std::span<const int> homes, Body&& body) {
-  DG_CHECK(homes.size() == size_t(size_) + 1);
-  const OwnChunks own = RunOwn(worker, 0, homes, body);
-  if (size_ > 1) TakeOthers(worker, 0, homes, own.mean_ns, body, [](int) { return true; }, false);
-}
 
 template <typename First, typename Then>
 void StepTeam::ForEachChunkThen(int worker, std::span<const int> first_homes, First&& first,

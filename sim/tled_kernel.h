@@ -72,7 +72,7 @@ int NodeChunks(const TledModel<T>& model) {
 }
 
 // Home ranges of element and node chunks for a team of `parts` workers
-// (StepTeam::ForEachChunk), each parts + 1 bounds, that keep a worker's
+// (StepTeam::ForEachChunkThen), each parts + 1 bounds, that keep a worker's
 // elements and nodes in the same region of the body. For a model of that
 // many parts they are its parts: a node gathers only forces its own worker
 // wrote. Otherwise, since elements are sorted by their first layout node, the

@@ -18,16 +18,17 @@ TEST_CASE("step team: each chunk once per pass, the serial section after all of 
     std::vector<std::atomic<int>> runs(kChunks);
     int serial_calls = 0;
     bool all_done_each_pass = true;
-    const std::vector<int> homes = workers == 3 ? std::vector<int>{0, 5, 30, kChunks} : std::vector<int>{};
+    // Even ranges, uneven with three; no second phase.
+    std::vector<int> homes(workers + 1);
+    for (int w = 0; w <= workers; ++w) homes[w] = kChunks * w / workers;
+    if (workers == 3) homes = {0, 5, 30, kChunks};
+    const std::vector<int> none(workers + 1, 0);
     team.Run(
         kPasses,
         [&](int worker, int) {
-          auto body = [&](int c) { runs[c].fetch_add(1, std::memory_order_relaxed); };
-          if (homes.empty()) {
-            team.ForEachChunk(worker, kChunks, body);
-          } else {
-            team.ForEachChunk(worker, homes, body);
-          }
+          team.ForEachChunkThen(
+              worker, homes, [&](int c) { runs[c].fetch_add(1, std::memory_order_relaxed); }, none, [](int) {},
+              StepTeam::ThenWaitsFor::kOwnRange);
         },
         [&](int pass) {
           ++serial_calls;
