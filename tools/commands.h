@@ -9,7 +9,9 @@ namespace dg::tools {
 // Each subcommand lives in its own folder and adds itself to the command line.
 // Its callback throws dg::Error on bad input; main() prints it and exits 1.
 void AddSimCommand(CLI::App& app);
-void AddBenchCommand(CLI::App& app);
+void AddBenchCommand(CLI::App& app);  // the group and every benchmark
+CLI::App* AddBenchGroup(CLI::App& app);  // the group alone, for its benchmarks to add to
+void AddSimBench(CLI::App& bench);
 void AddCalibrateCommand(CLI::App& app);
 void AddEvalCommand(CLI::App& app);
 void AddExportCommand(CLI::App& app);

@@ -1,22 +1,12 @@
 #include "tools/job_program.h"
 
-#include <filesystem>
 #include <string_view>
-#include <system_error>
 
-#include "sim/error.h"
+#include "tools/programs.h"
 
 namespace dg::tools {
 
-std::string RunningExecutablePath() {
-  std::error_code error;
-  const std::filesystem::path path = std::filesystem::read_symlink("/proc/self/exe", error);
-  if (error) {
-    throw Error("cannot find the running executable's path: " + error.message(), "/proc/self/exe",
-                "mount /proc (Linux), or run the commands without --emit-jobs");
-  }
-  return path.string();
-}
+std::string JobProgramPath() { return ProgramBesideThis(kCommandProgram); }
 
 std::string ShellWord(const std::string& word) {
   const auto literal = [](char c) {

@@ -4,11 +4,12 @@
 
 namespace dg::tools {
 
-// The absolute path of the running executable (/proc/self/exe). The job
-// lines of --emit-jobs start with it, so that a job runs this very build
-// whether or not it is on PATH, from any working directory.
+// The absolute path of the dynaguide command beside the running program
+// (tools/programs.h). The job lines of --emit-jobs start with it, so that a
+// job runs this very build whether or not it is on PATH, from any working
+// directory.
 // @throws dg::Error when /proc/self/exe cannot be read.
-std::string RunningExecutablePath();
+std::string JobProgramPath();
 
 // `word` as one word of a POSIX shell command line: unchanged when it holds
 // only characters the shell takes literally, else single-quoted.

@@ -1,5 +1,6 @@
 #include "tools/bench/bench_json.h"
 
+#include <cstdio>
 #include <fstream>
 
 #include <nlohmann/json.hpp>
@@ -10,6 +11,12 @@
 #include "tools/provenance.h"
 
 namespace dg::tools {
+
+void PrintMachine() {
+  const pipeline::MachineInfo machine = pipeline::ReadMachineInfo();
+  std::printf("machine: %s, %d logical cores, %s, %s\n", machine.cpu_model.c_str(), machine.logical_cores,
+              machine.simd.c_str(), machine.compiler.c_str());
+}
 
 void WriteBenchJson(const std::string& path, const std::vector<std::string>& records) {
   using Json = nlohmann::ordered_json;

@@ -15,6 +15,10 @@ std::string Printed(const char* format, Args... args) {
   return text;
 }
 
+// Prints the machine line a benchmark starts with: CPU, logical cores, SIMD,
+// compiler.
+void PrintMachine();
+
 // The saved figures of a benchmark: a JSON array (nlohmann's writer, two
 // spaces of indent), one object per record, each the record's own fields
 // (records: one JSON object's text each, JsonText(record, -1) of

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <fstream>
 #include <memory>
 #include <numeric>
 #include <random>
@@ -92,7 +93,7 @@ std::vector<BenchProblem> ForwardProblems(const SimBenchOptions& options) {
 }
 
 // Nanoseconds per pass of a StepTeam of `threads` workers with nothing to
-// do: the barrier (and the serial section's call) a step pays twice.
+// do: the barrier (and the serial section's call) a forward step pays once.
 double MeasureBarrierNs(int threads) {
   if (threads < 2) return 0;
   sim::StepTeam team(threads);
@@ -163,6 +164,22 @@ std::vector<double> TimeRepeats(int tets, int steps, int repeats, Advance advanc
   return rates;
 }
 
+// The process's resident memory now (VmRSS of /proc/self/status), MB; 0
+// where /proc cannot tell.
+double ResidentMegabytes() {
+  std::ifstream status("/proc/self/status");
+  std::string key;
+  while (status >> key) {
+    if (key == "VmRSS:") {
+      double kilobytes = 0;
+      status >> kilobytes;
+      return kilobytes / 1024;
+    }
+    status.ignore(1 << 20, '\n');
+  }
+  return 0;
+}
+
 template <typename T>
 SimBenchRecord MakeRecord(const std::string& name, const sim::TetMesh& mesh, int threads, const std::string& mode,
                           const std::vector<double>& rates, const sim::StabilityReport& stability,
@@ -182,6 +199,7 @@ SimBenchRecord MakeRecord(const std::string& name, const sim::TetMesh& mesh, int
   record.dt_critical_s = stability.dt_critical_s;
   record.steps_per_repeat = StepsPerRepeat(options);
   record.repeats = options.repeats;
+  record.resident_mb = ResidentMegabytes();
   return record;
 }
 
@@ -384,6 +402,7 @@ void WriteSimBenchJson(const std::string& path, const std::vector<SimBenchRecord
                                            {"speedup_over_1_thread", Significant(r.speedup_over_1_thread, 4)},
                                            {"barrier_ns", Significant(r.barrier_ns, 4)},
                                            {"nothing_shared_tet_steps_per_s", Significant(r.nothing_shared_tet_steps_per_s, 6)},
+                                           {"resident_mb", Significant(r.resident_mb, 4)},
                                            {"realtime_factor", Significant(r.realtime_factor, 6)},
                                            {"dt_s", Significant(r.dt_s, 6)},
                                            {"dt_critical_s", Significant(r.dt_critical_s, 6)},
@@ -401,8 +420,8 @@ void WriteSimBenchJson(const std::string& path, const std::vector<SimBenchRecord
 std::string SimBenchTable(const std::vector<SimBenchRecord>& records) {
   std::string table =
       "| mode | mesh | tets | nodes | precision | threads | M tet-steps/s (median) | min-max | x 1 thread | "
-      "barrier ns | nothing shared M | real-time factor | concurrent gain | inverse every | motion error um | dt_cr ms |\n"
-      "|---|---|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
+      "barrier ns | nothing shared M | resident MB | real-time factor | concurrent gain | inverse every | motion error um | dt_cr ms |\n"
+      "|---|---|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
   for (const SimBenchRecord& r : records) {
     char gain[16] = "-", speedup[16] = "-", barrier[16] = "-", interval[16] = "-", error[16] = "-", apart[16] = "-";
     if (r.nothing_shared_tet_steps_per_s > 0) std::snprintf(apart, sizeof apart, "%.1f", r.nothing_shared_tet_steps_per_s / 1e6);
@@ -413,10 +432,10 @@ std::string SimBenchTable(const std::vector<SimBenchRecord>& records) {
     }
     if (r.speedup_over_1_thread > 0) std::snprintf(speedup, sizeof speedup, "%.2f", r.speedup_over_1_thread);
     if (r.barrier_ns > 0) std::snprintf(barrier, sizeof barrier, "%.0f", r.barrier_ns);
-    table += Printed("| %s | %s | %d | %d | %s | %d | %.1f | %.1f-%.1f | %s | %s | %s | %.2f | %s | %s | %s | %.3f |\n",
+    table += Printed("| %s | %s | %d | %d | %s | %d | %.1f | %.1f-%.1f | %s | %s | %s | %.0f | %.2f | %s | %s | %s | %.3f |\n",
                      r.mode.c_str(), r.mesh.c_str(), r.mesh_tets, r.mesh_nodes, sim::ToString(r.precision).c_str(), r.threads,
                      r.tet_steps_per_s / 1e6, r.tet_steps_per_s_min / 1e6, r.tet_steps_per_s_max / 1e6, speedup,
-                     barrier, apart, r.realtime_factor, gain, interval, error, r.dt_critical_s * 1e3);
+                     barrier, apart, r.resident_mb, r.realtime_factor, gain, interval, error, r.dt_critical_s * 1e3);
   }
   return table;
 }

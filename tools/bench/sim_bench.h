@@ -55,13 +55,17 @@ struct SimBenchRecord {
   // The rate over the same configuration's on 1 thread in the same run (0 if not measured).
   double speedup_over_1_thread = 0;
   // The solver's barrier (a sim::StepTeam pass with no work), per pass, at
-  // this thread count, measured in the same run; a step has two.
+  // this thread count, measured in the same run; a forward step has one.
   double barrier_ns = 0;
   // forward on 2 or more threads only (else 0): as many one-thread solvers as
   // threads, each on its own copy of the model, stepped at once, all their
   // tet-steps per second together: the machine's rate for this kernel on
   // that many cores with nothing shared, measured in the same run.
   double nothing_shared_tet_steps_per_s = 0;
+  // The process's resident memory just after the timed repeats, the solver
+  // still alive: its arrays, the heap, and the pages of the libraries the
+  // program maps (docs/benchmarks.md).
+  double resident_mb = 0;
 };
 
 // Forward TLED throughput on Gmsh boxes (5 cm, the paper's material, base

@@ -20,7 +20,7 @@ struct EvalArguments {
 
 void RunProtocolCommand(EvalArguments& args) {
   args.protocol.progress = !args.quiet;
-  if (!args.protocol.emit_jobs.empty()) args.protocol.program = RunningExecutablePath();
+  if (!args.protocol.emit_jobs.empty()) args.protocol.program = JobProgramPath();
   const ProtocolResult result = RunProtocol(args.protocol);
   if (!args.protocol.emit_jobs.empty()) {
     std::printf("dynaguide eval protocol: one run per line in %s; run them (GNU parallel, a Slurm array), then\n"

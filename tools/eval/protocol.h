@@ -23,7 +23,7 @@ struct ProtocolOptions {
   double cycles = 3;                  // the evaluation window
   std::string emit_jobs;              // write one `dynaguide run` line per run here instead of running
   // What each job line calls: the dynaguide command gives its own absolute path
-  // (RunningExecutablePath), so the jobs need no PATH.
+  // (JobProgramPath), so the jobs need no PATH.
   std::string program = "dynaguide";
   // Give the runs the truth's registration instead of registering from the
   // video: the modes' errors without the registration's (an error budget).

@@ -19,7 +19,7 @@ struct RuntimeArguments {
 
 void RunRuntimeCommand(RuntimeArguments& args) {
   args.sweep.progress = !args.quiet;
-  if (!args.sweep.emit_jobs.empty()) args.sweep.program = RunningExecutablePath();
+  if (!args.sweep.emit_jobs.empty()) args.sweep.program = JobProgramPath();
   if (!args.from_logs.empty()) args.sweep.out_dir = args.from_logs;
   const RuntimeResult result =
       args.from_logs.empty() ? RunRuntimeSweep(args.sweep) : ReadRuntimeLogs(args.from_logs, args.sweep.cycles);

@@ -64,7 +64,7 @@ struct RuntimeOptions {
   std::string out_dir = "out/runtime";
   std::string emit_jobs;  // write one `dynaguide run` line per point here instead of running
   // What each job line calls: the dynaguide command gives its own absolute path
-  // (RunningExecutablePath), so the jobs need no PATH.
+  // (JobProgramPath), so the jobs need no PATH.
   std::string program = "dynaguide";
   double cycles = 3;      // the error window from the simulation's start, as the protocol's
   bool progress = true;

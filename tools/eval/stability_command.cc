@@ -45,7 +45,7 @@ void RunJob(const StabilityArguments& args) {
 
 void RunStabilityCommand(StabilityArguments& args) {
   args.study.progress = !args.quiet;
-  if (!args.study.emit_jobs.empty()) args.study.program = RunningExecutablePath();
+  if (!args.study.emit_jobs.empty()) args.study.program = JobProgramPath();
   if (!args.cell.empty() || !args.bisect.empty()) return RunJob(args);
   const StabilityResult result =
       args.from_logs ? ReadStabilityLogs(args.study.out_dir) : RunStabilityStudy(args.study);

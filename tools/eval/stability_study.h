@@ -84,7 +84,7 @@ struct StabilityOptions {
   int tets = kDefaultStudyTets;           // the mesh's target element count
   std::string emit_jobs;                  // write one command per cell and bisection here instead of running
   // What each job line calls: the dynaguide command gives its own absolute path
-  // (RunningExecutablePath), so the jobs need no PATH.
+  // (JobProgramPath), so the jobs need no PATH.
   std::string program = "dynaguide";
   bool progress = true;                   // progress on stderr (Progress: each tenth when not a terminal)
 };

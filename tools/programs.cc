@@ -1,0 +1,20 @@
+#include "tools/programs.h"
+
+#include <filesystem>
+#include <system_error>
+
+#include "sim/error.h"
+
+namespace dg::tools {
+
+std::string ProgramBesideThis(const std::string& program) {
+  std::error_code error;
+  const std::filesystem::path running = std::filesystem::read_symlink("/proc/self/exe", error);
+  if (error) {
+    throw Error("cannot find the running executable's path: " + error.message(), "/proc/self/exe",
+                "mount /proc (Linux)");
+  }
+  return (running.parent_path() / program).string();
+}
+
+}  // namespace dg::tools
