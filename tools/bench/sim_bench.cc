@@ -1,5 +1,7 @@
 #include "tools/bench/sim_bench.h"
 
+#include <malloc.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -164,9 +166,11 @@ std::vector<double> TimeRepeats(int tets, int steps, int repeats, Advance advanc
   return rates;
 }
 
-// The process's resident memory now (VmRSS of /proc/self/status), MB; 0
-// where /proc cannot tell.
+// The process's resident memory now (VmRSS of /proc/self/status), MB, once
+// the heap the run's earlier configurations freed is returned to the system,
+// so that the figure is this configuration's; 0 where /proc cannot tell.
 double ResidentMegabytes() {
+  malloc_trim(0);
   std::ifstream status("/proc/self/status");
   std::string key;
   while (status >> key) {

@@ -63,8 +63,9 @@ struct SimBenchRecord {
   // that many cores with nothing shared, measured in the same run.
   double nothing_shared_tet_steps_per_s = 0;
   // The process's resident memory just after the timed repeats, the solver
-  // still alive: its arrays, the heap, and the pages of the libraries the
-  // program maps (docs/benchmarks.md).
+  // still alive and the heap earlier configurations freed returned: its
+  // arrays, the heap, and the pages of the libraries the program maps
+  // (docs/benchmarks.md).
   double resident_mb = 0;
 };
 
