@@ -36,11 +36,7 @@ void AddVisionBench(CLI::App& bench) {
   vision->callback([options, json_path] {
     PrintMachine();
     const std::vector<VisionBenchRecord> records = RunVisionBench(*options, true);
-    std::fputs(VisionBenchTable(records).c_str(), stdout);
-    if (!json_path->empty()) {
-      WriteVisionBenchJson(*json_path, records);
-      std::printf("saved %s\n", json_path->c_str());
-    }
+    PrintAndSave(VisionBenchTable(records), *json_path, records, WriteVisionBenchJson);
   });
 }
 
@@ -58,11 +54,7 @@ void AddOverlayBench(CLI::App& bench) {
   command->callback([options, json_path] {
     PrintMachine();
     const std::vector<OverlayBenchRecord> records = RunOverlayBench(*options, true);
-    std::fputs(OverlayBenchTable(records).c_str(), stdout);
-    if (!json_path->empty()) {
-      WriteOverlayBenchJson(*json_path, records);
-      std::printf("saved %s\n", json_path->c_str());
-    }
+    PrintAndSave(OverlayBenchTable(records), *json_path, records, WriteOverlayBenchJson);
   });
 }
 
@@ -78,11 +70,7 @@ void AddRegisterBench(CLI::App& bench) {
   command->callback([options, json_path] {
     PrintMachine();
     const std::vector<RegisterBenchRecord> records = RunRegisterBench(*options, true);
-    std::fputs(RegisterBenchTable(records).c_str(), stdout);
-    if (!json_path->empty()) {
-      WriteRegisterBenchJson(*json_path, records);
-      std::printf("saved %s\n", json_path->c_str());
-    }
+    PrintAndSave(RegisterBenchTable(records), *json_path, records, WriteRegisterBenchJson);
   });
 }
 
@@ -100,11 +88,7 @@ void AddPreopBench(CLI::App& bench) {
     const int count = *threads > 0 ? *threads : tbb::info::default_concurrency();
     tbb::global_control parallelism(tbb::global_control::max_allowed_parallelism, count);
     const preop::PreopBenchRecord record = preop::RunPreopBench(*out_dir, count, true);
-    std::fputs(preop::PreopBenchTable(record).c_str(), stdout);
-    if (!json_path->empty()) {
-      preop::WritePreopBenchJson(*json_path, record);
-      std::printf("saved %s\n", json_path->c_str());
-    }
+    PrintAndSave(preop::PreopBenchTable(record), *json_path, record, preop::WritePreopBenchJson);
   });
 }
 
@@ -123,11 +107,7 @@ void AddPipelineBench(CLI::App& bench) {
   command->callback([options, json_path] {
     PrintMachine();
     const std::vector<PipelineBenchRecord> records = RunPipelineBench(*options, true);
-    std::fputs(PipelineBenchTable(records).c_str(), stdout);
-    if (!json_path->empty()) {
-      WritePipelineBenchJson(*json_path, records);
-      std::printf("saved %s\n", json_path->c_str());
-    }
+    PrintAndSave(PipelineBenchTable(records), *json_path, records, WritePipelineBenchJson);
   });
 }
 
@@ -154,11 +134,7 @@ void AddRunBench(CLI::App& bench) {
     options->policies.clear();
     for (const std::string& policy : *policies) options->policies.push_back(pipeline::ParsePolicy(policy));
     const std::vector<RunBenchRecord> records = RunRunBench(*options, true);
-    std::fputs(RunBenchTable(records).c_str(), stdout);
-    if (!json_path->empty()) {
-      WriteRunBenchJson(*json_path, records);
-      std::printf("saved %s\n", json_path->c_str());
-    }
+    PrintAndSave(RunBenchTable(records), *json_path, records, WriteRunBenchJson);
   });
 }
 

@@ -19,6 +19,16 @@ std::string Printed(const char* format, Args... args) {
 // compiler.
 void PrintMachine();
 
+// Prints a benchmark's table and, when `json_path` is not empty, saves its
+// records there with write(json_path, records) and says so.
+template <typename Records, typename Write>
+void PrintAndSave(const std::string& table, const std::string& json_path, const Records& records, Write write) {
+  std::fputs(table.c_str(), stdout);
+  if (json_path.empty()) return;
+  write(json_path, records);
+  std::printf("saved %s\n", json_path.c_str());
+}
+
 // The saved figures of a benchmark: a JSON array (nlohmann's writer, two
 // spaces of indent), one object per record, each the record's own fields
 // (records: one JSON object's text each, JsonText(record, -1) of

@@ -51,11 +51,7 @@ void AddSimBench(CLI::App& bench) {
     if (tets->count() == 0 && !forward) options->tets = {8000};
     PrintMachine();
     const std::vector<SimBenchRecord> records = RunSimBench(*options, true);
-    std::fputs(SimBenchTable(records).c_str(), stdout);
-    if (!json_path->empty()) {
-      WriteSimBenchJson(*json_path, records);
-      std::printf("saved %s\n", json_path->c_str());
-    }
+    PrintAndSave(SimBenchTable(records), *json_path, records, WriteSimBenchJson);
   });
 }
 
