@@ -168,6 +168,10 @@ def solver_rows(t):
                   f"M tet-steps/s (2 / 1: {num(rs[1]['speedup_over_1_thread'])}x, "
                   f"barrier {num(rs[1]['barrier_ns'])} ns{nothing_shared(rs[1])})", "",
                   "sim_mesh_file.json", rs)
+    r = pick_mesh_file(2, None)
+    if r and r.get("resident_mb"):
+        t.add("TLED forward, 20k-tet mesh file, float, 2 threads: resident memory while stepping",
+              f"{num(r['resident_mb'])} MB", "", "sim_mesh_file.json", [r])
 
     for mode, interval in (("combined", 8), ("volume", 8)):
         rs = [pick("sim_combined.json", mode=mode, inverse_interval_steps=interval,
@@ -192,6 +196,7 @@ def fps_spread(r):
 def pick_mesh_file(threads, shuffled):
     found = [r for r in records("sim_mesh_file.json")
              if r.get("threads") == threads and r.get("mode") == "forward"
+             and r.get("precision") == "float"
              and (("shuffled" in r.get("mesh", "")) == (shuffled is not None))]
     return max(found, key=lambda r: r.get("date", "")) if found else None
 
