@@ -168,10 +168,10 @@ def solver_rows(t):
                   f"M tet-steps/s (2 / 1: {num(rs[1]['speedup_over_1_thread'])}x, "
                   f"barrier {num(rs[1]['barrier_ns'])} ns{nothing_shared(rs[1])})", "",
                   "sim_mesh_file.json", rs)
-    r = pick_mesh_file(2, None)
+    r = pick("sim_memory.json", threads=2, mode="forward", precision="float")
     if r and r.get("resident_mb"):
         t.add("TLED forward, 20k-tet mesh file, float, 2 threads: resident memory while stepping",
-              f"{num(r['resident_mb'])} MB", "", "sim_mesh_file.json", [r])
+              f"{num(r['resident_mb'])} MB", "", "sim_memory.json", [r])
 
     for mode, interval in (("combined", 8), ("volume", 8)):
         rs = [pick("sim_combined.json", mode=mode, inverse_interval_steps=interval,
