@@ -3,8 +3,6 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <exception>
-#include <functional>
 #include <map>
 #include <numbers>
 #include <string>
@@ -12,25 +10,15 @@
 
 #include <Eigen/Geometry>
 #include <fmt/format.h>
-#include <gmsh.h>
 #include <spdlog/spdlog.h>
 
 #include "io/elapsed_time.h"
-#include "io/gmsh_session.h"
+#include "io/gmsh_meshing.h"
 #include "sim/error.h"
 #include "sim/log.h"
 
 namespace dg::io {
 namespace {
-
-// Gmsh's Delaunay mesher with optimisation fills a volume V with about
-// 5 V / h^3 tetrahedra at characteristic length h (measured on boxes and
-// ellipsoids; regular tetrahedra of edge h would give 8.5). Only the first
-// pass relies on it: later passes correct h from the count obtained.
-constexpr double kTetsPerCubicLength = 5.0;
-
-// A pass this close to the target ends the search early.
-constexpr double kTetCountGoodEnough = 0.05;
 
 // Elements flatter than this make the explicit solver's stable step tiny.
 constexpr double kPoorRadiusRatio = 0.05;
@@ -53,93 +41,29 @@ double TotalVolume(const sim::TetMesh& mesh) {
   return six_volume / 6.0;
 }
 
-// Meshes the solid that `build` adds to an empty model (with its physical
-// groups, synchronised), approaching target_tets, and converts it.
-sim::TetMesh MeshSolid(const std::string& where, double volume_m3, int target_tets,
-                       const std::function<void()>& build, MeshReport* report) {
+gmsh_module::Solid Solid(gmsh_module::Solid::Kind kind, const Eigen::Vector3d& lengths_m) {
+  gmsh_module::Solid solid;
+  solid.kind = kind;
+  solid.lengths_m = {lengths_m.x(), lengths_m.y(), lengths_m.z()};
+  return solid;
+}
+
+// Meshes `solid` in Gmsh, approaching target_tets.
+sim::TetMesh MeshSolid(const std::string& where, gmsh_module::Solid solid, double volume_m3, int target_tets,
+                       MeshReport* report) {
   const auto start = std::chrono::steady_clock::now();
-  GmshSession gmsh_session(where, "check the spec; a very large target count may exhaust memory");
-  gmsh_session.Run("building the geometry", build);
-
-  // Count ~ h^-3, so each pass rescales h by the cube root of the count's error.
-  double h = std::cbrt(kTetsPerCubicLength * volume_m3 / target_tets);
-  double best_h = h, best_error = HUGE_VAL, meshed_h = 0;
-  int passes = 0;
-  auto generate = [&](double size) {
-    ++passes;
-    gmsh_session.Run("meshing", [&] {
-      gmsh::model::mesh::clear();
-      gmsh::option::setNumber("Mesh.MeshSizeMin", size);
-      gmsh::option::setNumber("Mesh.MeshSizeMax", size);
-      gmsh::model::mesh::generate(3);
-    });
-    meshed_h = size;
-    std::vector<std::size_t> tags, nodes;
-    gmsh_session.Run("counting tetrahedra", [&] { gmsh::model::mesh::getElementsByType(4, tags, nodes); });
-    return static_cast<double>(tags.size());
-  };
-  for (int pass = 0; pass < kMaxPasses; ++pass) {
-    const double count = generate(h);
-    const double error = std::abs(count / target_tets - 1.0);
-    if (error < best_error) best_error = error, best_h = h;
-    if (error <= kTetCountGoodEnough || count == 0) break;
-    h *= std::cbrt(count / target_tets);
-  }
-  if (meshed_h != best_h) generate(best_h);
-
-  std::vector<std::size_t> node_tags, tet_tags, tet_nodes;
-  std::vector<double> coords, parametric;
-  gmsh_session.Run("reading the mesh", [&] {
-    gmsh::model::mesh::getNodes(node_tags, coords, parametric, -1, -1, false, false);
-    gmsh::model::mesh::getElementsByType(4, tet_tags, tet_nodes);
-  });
-  sim::TetMesh mesh;
-  mesh.source = where;
-  // Gmsh's tags are positive but need not be contiguous.
-  std::map<std::size_t, int> node_index, tet_index;
-  mesh.X_m.resize(3, static_cast<Eigen::Index>(node_tags.size()));
-  for (std::size_t i = 0; i < node_tags.size(); ++i) {
-    node_index[node_tags[i]] = static_cast<int>(i);
-    mesh.X_m.col(i) << coords[3 * i], coords[3 * i + 1], coords[3 * i + 2];
-  }
-  mesh.tets.resize(4, static_cast<Eigen::Index>(tet_tags.size()));
-  for (std::size_t e = 0; e < tet_tags.size(); ++e) {
-    tet_index[tet_tags[e]] = static_cast<int>(e);
-    for (int c = 0; c < 4; ++c) mesh.tets(c, e) = node_index.at(tet_nodes[4 * e + c]);
-  }
-
-  gmsh_session.Run("reading the physical groups", [&] {
-    gmsh::vectorpair groups;
-    gmsh::model::getPhysicalGroups(groups);
-    for (const auto& [dim, tag] : groups) {
-      std::string name;
-      gmsh::model::getPhysicalName(dim, tag, name);
-      std::vector<std::size_t> tags;
-      std::vector<double> unused;
-      gmsh::model::mesh::getNodesForPhysicalGroup(dim, tag, tags, unused);
-      std::vector<int>& nodes = mesh.node_sets[name];
-      for (std::size_t t : tags) nodes.push_back(node_index.at(t));
-      std::sort(nodes.begin(), nodes.end());
-      nodes.erase(std::unique(nodes.begin(), nodes.end()), nodes.end());
-      if (dim != 3) continue;
-      std::vector<int> entities;
-      gmsh::model::getEntitiesForPhysicalGroup(dim, tag, entities);
-      std::vector<int>& elements = mesh.element_sets[name];
-      for (int entity : entities) {
-        std::vector<std::size_t> tags_in_entity, nodes_in_entity;
-        gmsh::model::mesh::getElementsByType(4, tags_in_entity, nodes_in_entity, entity);
-        for (std::size_t t : tags_in_entity) elements.push_back(tet_index.at(t));
-      }
-      std::sort(elements.begin(), elements.end());
-    }
-  });
-
-  const int dropped = sim::RemoveUnusedNodes(&mesh);
-  sim::OrientElements(&mesh);
+  gmsh_module::MeshRequest request;
+  request.solid = std::move(solid);
+  request.volume_m3 = volume_m3;
+  request.target_tets = target_tets;
+  request.max_passes = kMaxPasses;
+  GmshMeshing meshing =
+      MeshInGmsh(request, where, "check the spec; a very large target count may exhaust memory");
+  sim::TetMesh& mesh = meshing.mesh;
 
   MeshReport r;
-  r.element_size_m = best_h;
-  r.passes = passes;
+  r.element_size_m = meshing.element_size_m;
+  r.passes = meshing.passes;
   r.volume_m3 = TotalVolume(mesh);
   r.min_radius_ratio = HUGE_VAL;
   for (int e = 0; e < mesh.num_tets(); ++e) {
@@ -152,9 +76,9 @@ sim::TetMesh MeshSolid(const std::string& where, double volume_m3, int target_te
   spdlog::logger& log = Logger("io");
   log.info("meshed {}: {} nodes, {} tets (h = {:.3g} mm, {} passes, {} unused nodes dropped), "
            "radius ratio min {:.3f} mean {:.3f}, {:.0f} ms",
-           where, mesh.num_nodes(), mesh.num_tets(), 1e3 * r.element_size_m, r.passes, dropped,
+           where, mesh.num_nodes(), mesh.num_tets(), 1e3 * r.element_size_m, r.passes, meshing.unused_nodes_dropped,
            r.min_radius_ratio, r.mean_radius_ratio, r.wall_ms);
-  if (best_error > kTetCountTolerance) {
+  if (meshing.count_error > kTetCountTolerance) {
     log.warn("{}: got {} tets, more than {:.0f}% off the target; the shape needs a different count",
              where, mesh.num_tets(), 100 * kTetCountTolerance);
   }
@@ -163,22 +87,7 @@ sim::TetMesh MeshSolid(const std::string& where, double volume_m3, int target_te
              r.min_radius_ratio);
   }
   if (report) *report = r;
-  return mesh;
-}
-
-// Names the box face that an axis-aligned planar surface lies on.
-std::string BoxFaceName(int surface_tag, const Eigen::Vector3d& size_m) {
-  double x0, y0, z0, x1, y1, z1;
-  gmsh::model::getBoundingBox(2, surface_tag, x0, y0, z0, x1, y1, z1);
-  const Eigen::Vector3d lo(x0, y0, z0), hi(x1, y1, z1);
-  Eigen::Index axis;
-  (hi - lo).cwiseQuotient(size_m).minCoeff(&axis);
-  const bool at_max = 0.5 * (lo[axis] + hi[axis]) > 0.5 * size_m[axis];
-  return std::string(1, "xyz"[axis]) + (at_max ? "max" : "min");
-}
-
-void AddPhysicalGroup(int dim, const std::vector<int>& tags, const std::string& name) {
-  gmsh::model::setPhysicalName(dim, gmsh::model::addPhysicalGroup(dim, tags), name);
+  return std::move(mesh);
 }
 
 }  // namespace
@@ -194,15 +103,8 @@ sim::TetMesh MeshBox(const BoxSpec& spec, MeshReport* report) {
   if (std::string problem = spec.Validate(); !problem.empty()) {
     throw Error("invalid box: " + problem, where, "give positive sizes (m) and a positive count");
   }
-  const Eigen::Vector3d size = spec.size_m;
-  return MeshSolid(where, size.prod(), spec.target_tets, [size] {
-    const int volume = gmsh::model::occ::addBox(0, 0, 0, size.x(), size.y(), size.z());
-    gmsh::model::occ::synchronize();
-    gmsh::vectorpair surfaces;
-    gmsh::model::getEntities(surfaces, 2);
-    for (const auto& [dim, tag] : surfaces) AddPhysicalGroup(2, {tag}, BoxFaceName(tag, size));
-    AddPhysicalGroup(3, {volume}, "body");
-  }, report);
+  return MeshSolid(where, Solid(gmsh_module::Solid::Kind::kBox, spec.size_m), spec.size_m.prod(), spec.target_tets,
+                   report);
 }
 
 sim::TetMesh MeshEllipsoid(const EllipsoidSpec& spec, MeshReport* report) {
@@ -213,17 +115,7 @@ sim::TetMesh MeshEllipsoid(const EllipsoidSpec& spec, MeshReport* report) {
   }
   const Eigen::Vector3d axes = spec.semi_axes_m;
   const double volume_m3 = 4.0 / 3.0 * std::numbers::pi * axes.prod();
-  return MeshSolid(where, volume_m3, spec.target_tets, [axes] {
-    const int volume = gmsh::model::occ::addSphere(0, 0, 0, 1.0);
-    gmsh::model::occ::dilate({{3, volume}}, 0, 0, 0, axes.x(), axes.y(), axes.z());
-    gmsh::model::occ::synchronize();
-    gmsh::vectorpair surfaces;
-    gmsh::model::getEntities(surfaces, 2);
-    std::vector<int> surface_tags;
-    for (const auto& [dim, tag] : surfaces) surface_tags.push_back(tag);
-    AddPhysicalGroup(2, surface_tags, "surface");
-    AddPhysicalGroup(3, {volume}, "body");
-  }, report);
+  return MeshSolid(where, Solid(gmsh_module::Solid::Kind::kEllipsoid, axes), volume_m3, spec.target_tets, report);
 }
 
 std::string TruncatedEllipsoidSpec::Validate() const {
@@ -248,29 +140,9 @@ sim::TetMesh MeshTruncatedEllipsoid(const TruncatedEllipsoidSpec& spec, MeshRepo
   if (std::string problem = spec.Validate(); !problem.empty()) {
     throw Error("invalid truncated ellipsoid: " + problem, where, "correct the spec");
   }
-  const Eigen::Vector3d axes = spec.semi_axes_m;
-  const double h = spec.centre_height_m;
-  return MeshSolid(where, spec.Volume_m3(), spec.target_tets, [axes, h] {
-    const int ellipsoid = gmsh::model::occ::addSphere(0, 0, h, 1.0);
-    gmsh::model::occ::dilate({{3, ellipsoid}}, 0, 0, h, axes.x(), axes.y(), axes.z());
-    const double reach = 2 * axes.maxCoeff() + std::abs(h);
-    const int half_space = gmsh::model::occ::addBox(-reach, -reach, 0, 2 * reach, 2 * reach, 2 * reach);
-    gmsh::vectorpair kept;
-    std::vector<gmsh::vectorpair> map;
-    gmsh::model::occ::intersect({{3, ellipsoid}}, {{3, half_space}}, kept, map);
-    gmsh::model::occ::synchronize();
-    gmsh::vectorpair surfaces;
-    gmsh::model::getBoundary(kept, surfaces, /*combined=*/true, /*oriented=*/false);
-    std::vector<int> curved, base;
-    for (const auto& [dim, tag] : surfaces) {
-      double x0, y0, z0, x1, y1, z1;
-      gmsh::model::getBoundingBox(dim, tag, x0, y0, z0, x1, y1, z1);
-      (z1 < 1e-3 * reach ? base : curved).push_back(tag);  // OCC pads bounding boxes loosely
-    }
-    AddPhysicalGroup(2, curved, "surface");
-    AddPhysicalGroup(2, base, "base");
-    AddPhysicalGroup(3, {kept.at(0).second}, "body");
-  }, report);
+  gmsh_module::Solid solid = Solid(gmsh_module::Solid::Kind::kTruncatedEllipsoid, spec.semi_axes_m);
+  solid.centre_height_m = spec.centre_height_m;
+  return MeshSolid(where, std::move(solid), spec.Volume_m3(), spec.target_tets, report);
 }
 
 void WriteMsh(const sim::TetMesh& mesh, const std::string& path, int version) {
@@ -343,50 +215,34 @@ void WriteMsh(const sim::TetMesh& mesh, const std::string& path, int version) {
     }
   }
 
-  GmshSession gmsh_session(path + " (from " + mesh.source + ")",
-                           "check that the output folder exists and is writable");
-  gmsh_session.Run("writing the mesh", [&] {
-    gmsh::model::add("dynaguide");
-    // Every node goes to the first volume; Gmsh needs no finer classification to write.
-    std::vector<std::size_t> node_tags(mesh.num_nodes());
-    std::vector<double> coords(3 * static_cast<std::size_t>(mesh.num_nodes()));
-    for (int a = 0; a < mesh.num_nodes(); ++a) {
-      node_tags[a] = a + 1;
-      for (int i = 0; i < 3; ++i) coords[3 * a + i] = mesh.X_m(i, a);
+  gmsh_module::MshFile file;
+  file.path = path;
+  file.format = version == 22 ? 2.2 : 4.1;
+  file.save_all = plain;
+  file.coords.resize(3 * static_cast<std::size_t>(mesh.num_nodes()));
+  for (int a = 0; a < mesh.num_nodes(); ++a) {
+    for (int i = 0; i < 3; ++i) file.coords[3 * a + i] = mesh.X_m(i, a);
+  }
+  for (const auto& [member, elements] : groups) {
+    gmsh_module::MshFile::Volume& volume = file.volumes.emplace_back();
+    for (int e : elements) {
+      volume.tet_tags.push_back(e + 1);
+      for (int c = 0; c < 4; ++c) volume.tet_nodes.push_back(mesh.tets(c, e) + 1);
     }
-    std::map<std::string, std::vector<int>> volumes_of_set;
-    int volume_tag = 0;
-    for (const auto& [member, elements] : groups) {
-      gmsh::model::addDiscreteEntity(3, ++volume_tag);
-      if (volume_tag == 1) gmsh::model::mesh::addNodes(3, 1, node_tags, coords);
-      std::vector<std::size_t> tags, nodes;
-      for (int e : elements) {
-        tags.push_back(e + 1);
-        for (int c = 0; c < 4; ++c) nodes.push_back(mesh.tets(c, e) + 1);
-      }
-      gmsh::model::mesh::addElementsByType(volume_tag, 4, tags, nodes);
-      for (std::size_t s = 0; s < set_names.size(); ++s) {
-        if (member[s]) volumes_of_set[set_names[s]].push_back(volume_tag);
-      }
+    for (std::size_t s = 0; s < set_names.size(); ++s) {
+      if (member[s]) volume.groups.push_back(set_names[s]);
     }
-    for (const auto& [name, tags] : volumes_of_set) AddPhysicalGroup(3, tags, name);
-    int surface_tag = 0;
-    std::size_t triangle_tag = num_tets;
-    for (const auto& [name, chosen] : surface_faces) {
-      gmsh::model::addDiscreteEntity(2, ++surface_tag);
-      std::vector<std::size_t> tags, nodes;
-      for (int f : chosen) {
-        tags.push_back(++triangle_tag);
-        for (int c = 0; c < 3; ++c) nodes.push_back(faces(c, f) + 1);
-      }
-      gmsh::model::mesh::addElementsByType(surface_tag, 2, tags, nodes);
-      AddPhysicalGroup(2, {surface_tag}, name);
+  }
+  std::size_t triangle_tag = num_tets;
+  for (const auto& [name, chosen] : surface_faces) {
+    gmsh_module::MshFile::Surface& surface = file.surfaces.emplace_back();
+    surface.group = name;
+    for (int f : chosen) {
+      surface.triangle_tags.push_back(++triangle_tag);
+      for (int c = 0; c < 3; ++c) surface.triangle_nodes.push_back(faces(c, f) + 1);
     }
-    gmsh::option::setNumber("Mesh.MshFileVersion", version == 22 ? 2.2 : 4.1);
-    gmsh::option::setNumber("Mesh.Binary", 0);
-    gmsh::option::setNumber("Mesh.SaveAll", plain ? 1 : 0);
-    gmsh::write(path);
-  });
+  }
+  WriteMshInGmsh(file, path + " (from " + mesh.source + ")", "check that the output folder exists and is writable");
 }
 
 double RadiusRatio(const sim::TetMesh& mesh, int element) {

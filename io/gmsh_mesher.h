@@ -11,8 +11,9 @@ namespace dg::io {
 // Meshing of simple solids through Gmsh's SDK, for tests, benchmarks and the
 // built-in examples. Every call is deterministic: the same spec gives the same
 // mesh bit for bit (one thread, fixed seed and algorithms, no user gmshrc).
-// Gmsh is a process-wide singleton, so calls from several threads are
-// serialised on a mutex; Gmsh prints nothing, and its failures become dg::Error.
+// Gmsh runs in its module, loaded on the first call (io/gmsh_meshing.h); it
+// is a process-wide singleton, so calls from several threads are serialised
+// on a mutex. Gmsh prints nothing, and its failures become dg::Error.
 // The returned mesh is in metres, has no unused nodes, is positively
 // oriented (sim::OrientElements has run) and keeps Gmsh's node order, entity
 // by entity, as Gmsh writes it to a file (the solver's model lays nodes out

@@ -32,6 +32,15 @@ dg_run(OUTPUT help COMMAND ${root}/usr/bin/dynaguide --help)
 if(NOT help MATCHES "dynaguide: image-constrained soft-tissue simulation")
   message(FATAL_ERROR "the packaged dynaguide --help printed:\n${help}")
 endif()
+# The unpacked command meshes through the package's own Gmsh module, found
+# beside it, not the build tree's (LD_DEBUG=files lists what the loader loads).
+execute_process(COMMAND ${CMAKE_COMMAND} -E env LD_DEBUG=files
+    ${root}/usr/bin/dynaguide mesh box --tets 1000 --out ${WORK_DIR}/box.msh
+  RESULT_VARIABLE result OUTPUT_VARIABLE out ERROR_VARIABLE loaded)
+if(NOT result EQUAL 0 OR NOT loaded MATCHES "calling init: ${root}/usr/lib/[^\n]*dynaguide/dynaguide-gmsh.so\n")
+  string(REGEX MATCHALL "file=[^\n]*gmsh[^\n]*" gmsh_lines "${loaded}")
+  message(FATAL_ERROR "the packaged dynaguide mesh box gave ${result}, loading: ${gmsh_lines}\n${out}")
+endif()
 file(GLOB_RECURSE config ${root}/usr/*/dynaguideConfig.cmake)
 if(NOT config OR NOT EXISTS ${root}/usr/include/dynaguide/sim/tled_solver.h)
   message(FATAL_ERROR "the package lacks dg::sim's CMake package or headers")

@@ -11,10 +11,9 @@
 
 #include <Eigen/Dense>
 #include <fmt/format.h>
-#include <gmsh.h>
 
 #include "io/gmsh_mesher.h"
-#include "io/gmsh_session.h"
+#include "io/gmsh_meshing.h"
 #include "sim/error.h"
 #include "sim/log.h"
 #include "stages/preop/segment/surface_extraction.h"
@@ -23,12 +22,6 @@ namespace dg::stages::preop {
 namespace {
 
 constexpr const char* kWhere = "tetrahedralisation of the segmented surface";
-
-// Gmsh's Delaunay mesher with optimisation fills a volume V with about
-// 5 V / h^3 tetrahedra at characteristic length h (io/gmsh_mesher.cc); only
-// the first pass relies on it.
-constexpr double kTetsPerCubicLength = 5.0;
-constexpr double kTetCountGoodEnough = 0.05;
 
 // Throws unless every edge is shared by exactly two triangles.
 void RequireClosed(const io::SurfaceMesh& surface) {
@@ -81,58 +74,6 @@ class MaskProximity {
   double distance_m_;
   Eigen::Vector3i reach_;
 };
-
-// Loads the surface as one discrete surface, splits it into patches Gmsh can
-// reparametrise, and bounds a volume by them.
-void BuildVolume(const io::SurfaceMesh& surface, double feature_angle_rad) {
-  gmsh::model::add("organ");
-  gmsh::model::addDiscreteEntity(2, 1);
-  std::vector<std::size_t> node_tags(surface.num_vertices());
-  std::vector<double> coords(3 * node_tags.size());
-  for (int v = 0; v < surface.num_vertices(); ++v) {
-    node_tags[v] = v + 1;
-    for (int d = 0; d < 3; ++d) coords[3 * v + d] = surface.vertices_m(d, v);
-  }
-  gmsh::model::mesh::addNodes(2, 1, node_tags, coords);
-  std::vector<std::size_t> triangle_tags(surface.num_triangles()), triangle_nodes;
-  for (int t = 0; t < surface.num_triangles(); ++t) {
-    triangle_tags[t] = t + 1;
-    for (int c = 0; c < 3; ++c) triangle_nodes.push_back(surface.triangles(c, t) + 1);
-  }
-  gmsh::model::mesh::addElementsByType(1, 2, triangle_tags, triangle_nodes);
-  gmsh::model::mesh::classifySurfaces(feature_angle_rad, /*boundary=*/true, /*forReparametrization=*/true,
-                                      /*curveAngle=*/std::numbers::pi);
-  gmsh::model::mesh::createGeometry();
-  gmsh::vectorpair patches;
-  gmsh::model::getEntities(patches, 2);
-  std::vector<int> patch_tags;
-  for (const auto& [dim, tag] : patches) patch_tags.push_back(tag);
-  gmsh::model::geo::addVolume({gmsh::model::geo::addSurfaceLoop(patch_tags)});
-  gmsh::model::geo::synchronize();
-}
-
-sim::TetMesh ReadTetMesh(io::GmshSession* session) {
-  std::vector<std::size_t> node_tags, tet_tags, tet_nodes;
-  std::vector<double> coords, parametric;
-  session->Run("reading the mesh", [&] {
-    gmsh::model::mesh::getNodes(node_tags, coords, parametric, -1, -1, /*includeBoundary=*/false,
-                                /*returnParametricCoord=*/false);
-    gmsh::model::mesh::getElementsByType(4, tet_tags, tet_nodes);
-  });
-  sim::TetMesh mesh;
-  mesh.source = kWhere;
-  std::map<std::size_t, int> node_index;  // Gmsh's tags need not be contiguous
-  mesh.X_m.resize(3, static_cast<Eigen::Index>(node_tags.size()));
-  for (std::size_t i = 0; i < node_tags.size(); ++i) {
-    node_index[node_tags[i]] = static_cast<int>(i);
-    mesh.X_m.col(i) << coords[3 * i], coords[3 * i + 1], coords[3 * i + 2];
-  }
-  mesh.tets.resize(4, static_cast<Eigen::Index>(tet_tags.size()));
-  for (std::size_t e = 0; e < tet_tags.size(); ++e) {
-    for (int c = 0; c < 4; ++c) mesh.tets(c, e) = node_index.at(tet_nodes[4 * e + c]);
-  }
-  return mesh;
-}
 
 std::vector<int> SortedUnique(std::vector<int> ids) {
   std::sort(ids.begin(), ids.end());
@@ -188,44 +129,20 @@ sim::TetMesh Tetrahedralise(const io::SurfaceMesh& surface, const VoxelMask& mou
                 "orient the triangles counter-clockwise seen from outside (ExtractSurface does)");
   }
 
-  sim::TetMesh mesh;
+  io::gmsh_module::MeshRequest request;
+  request.solid.kind = io::gmsh_module::Solid::Kind::kClosedSurface;
+  request.solid.vertices_m.assign(surface.vertices_m.data(), surface.vertices_m.data() + surface.vertices_m.size());
+  request.solid.triangles.assign(surface.triangles.data(), surface.triangles.data() + surface.triangles.size());
+  request.solid.feature_angle_rad = options.feature_angle_deg * std::numbers::pi / 180;
+  request.volume_m3 = enclosed_m3;
+  request.target_tets = options.target_tets;
+  request.max_passes = kMaxMeshingPasses;
+  io::GmshMeshing meshing = io::MeshInGmsh(
+      request, kWhere, "check that the surface is one closed, non-self-intersecting shell; try another target count");
+  sim::TetMesh& mesh = meshing.mesh;
   TetrahedralisationReport r;
-  {
-    io::GmshSession session(kWhere,
-                            "check that the surface is one closed, non-self-intersecting shell; try another target count",
-                            io::GmshSession::SurfaceAlgorithm::kFrontalDelaunay);
-    session.Run("building the volume from the surface",
-                [&] { BuildVolume(surface, options.feature_angle_deg * std::numbers::pi / 180); });
-
-    // Count ~ h^-3, so each pass rescales h by the cube root of the count's error.
-    auto generate = [&](double h) {
-      ++r.passes;
-      std::vector<std::size_t> tags, nodes;
-      session.Run("meshing", [&] {
-        gmsh::model::mesh::clear();
-        gmsh::option::setNumber("Mesh.MeshSizeMin", h);
-        gmsh::option::setNumber("Mesh.MeshSizeMax", h);
-        gmsh::model::mesh::generate(3);
-        gmsh::model::mesh::getElementsByType(4, tags, nodes);
-      });
-      return static_cast<double>(tags.size());
-    };
-    double h = std::cbrt(kTetsPerCubicLength * enclosed_m3 / options.target_tets);
-    double best_h = h, best_error = HUGE_VAL, meshed_h = 0;
-    for (int pass = 0; pass < kMaxMeshingPasses; ++pass) {
-      const double count = generate(h);
-      meshed_h = h;
-      const double error = std::abs(count / options.target_tets - 1.0);
-      if (error < best_error) best_error = error, best_h = h;
-      if (error <= kTetCountGoodEnough || count == 0) break;
-      h *= std::cbrt(count / options.target_tets);
-    }
-    if (meshed_h != best_h) generate(best_h);
-    r.element_size_m = best_h;
-    mesh = ReadTetMesh(&session);
-  }
-  sim::RemoveUnusedNodes(&mesh);
-  sim::OrientElements(&mesh);
+  r.element_size_m = meshing.element_size_m;
+  r.passes = meshing.passes;
   AddNodeSets(mount, options.base_distance_m, &mesh);
 
   r.nodes = mesh.num_nodes();
@@ -248,7 +165,7 @@ sim::TetMesh Tetrahedralise(const io::SurfaceMesh& surface, const VoxelMask& mou
                           100 * kTetCountTolerance, options.target_tets);
   }
   if (report) *report = r;
-  return mesh;
+  return std::move(mesh);
 }
 
 }  // namespace dg::stages::preop

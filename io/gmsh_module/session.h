@@ -2,9 +2,17 @@
 
 #include <functional>
 #include <mutex>
+#include <stdexcept>
 #include <string>
 
-namespace dg::io {
+namespace dg::io::gmsh_module {
+
+// A step that failed inside Gmsh, with Gmsh's reason. Thrown and caught
+// inside the module only: the entry points return its message.
+class StepFailed : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
 
 // One use of Gmsh's SDK, from initialize to finalize. Gmsh keeps its state in
 // process-wide singletons, so a session holds a process-wide mutex
@@ -15,25 +23,24 @@ namespace dg::io {
 // linear elements, the size from MeshSizeMin/Max alone (so an element count
 // follows the size). Run() turns whatever Gmsh throws (in 4.8 often a bare
 // std::string, or a type with only the logger's last error to explain it)
-// into a dg::Error naming the step, `where` and `fix`.
-class GmshSession {
+// into StepFailed naming the step.
+class Session {
  public:
   // Gmsh's 2D algorithms that the project uses for surfaces.
   enum class SurfaceAlgorithm {
-    kDelaunay = 5,        // CAD surfaces (io/gmsh_mesher)
-    kFrontalDelaunay = 6  // reparametrised patches of a discrete surface (stages/preop)
+    kDelaunay = 5,        // CAD surfaces
+    kFrontalDelaunay = 6  // reparametrised patches of a discrete surface
   };
 
-  GmshSession(std::string where, std::string fix, SurfaceAlgorithm surface = SurfaceAlgorithm::kDelaunay);
-  ~GmshSession();
-  GmshSession(const GmshSession&) = delete;
-  GmshSession& operator=(const GmshSession&) = delete;
+  explicit Session(SurfaceAlgorithm surface = SurfaceAlgorithm::kDelaunay);
+  ~Session();
+  Session(const Session&) = delete;
+  Session& operator=(const Session&) = delete;
 
   void Run(const std::string& step, const std::function<void()>& body);
 
  private:
   std::lock_guard<std::mutex> lock_;
-  std::string where_, fix_;
 };
 
-}  // namespace dg::io
+}  // namespace dg::io::gmsh_module

@@ -1,10 +1,8 @@
-#include "io/gmsh_session.h"
+#include "io/gmsh_module/session.h"
 
 #include <gmsh.h>
 
-#include "sim/error.h"
-
-namespace dg::io {
+namespace dg::io::gmsh_module {
 namespace {
 
 std::mutex& GmshMutex() {
@@ -14,8 +12,7 @@ std::mutex& GmshMutex() {
 
 }  // namespace
 
-GmshSession::GmshSession(std::string where, std::string fix, SurfaceAlgorithm surface)
-    : lock_(GmshMutex()), where_(std::move(where)), fix_(std::move(fix)) {
+Session::Session(SurfaceAlgorithm surface) : lock_(GmshMutex()) {
   gmsh::initialize(0, nullptr, /*readConfigFiles=*/false);
   try {
     Run("configuring Gmsh", [surface] {
@@ -43,9 +40,9 @@ GmshSession::GmshSession(std::string where, std::string fix, SurfaceAlgorithm su
   }
 }
 
-GmshSession::~GmshSession() { gmsh::finalize(); }
+Session::~Session() { gmsh::finalize(); }
 
-void GmshSession::Run(const std::string& step, const std::function<void()>& body) {
+void Session::Run(const std::string& step, const std::function<void()>& body) {
   std::string reason;
   try {
     body();
@@ -58,7 +55,7 @@ void GmshSession::Run(const std::string& step, const std::function<void()>& body
     gmsh::logger::getLastError(reason);
   }
   if (reason.empty()) reason = "no message";
-  throw Error(step + " failed in Gmsh: " + reason, where_, fix_);
+  throw StepFailed(step + " failed in Gmsh: " + reason);
 }
 
-}  // namespace dg::io
+}  // namespace dg::io::gmsh_module
