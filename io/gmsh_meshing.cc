@@ -24,7 +24,14 @@ constexpr const char* kModuleFix =
 
 // Where the module may be, in the order tried (gmsh_meshing.h).
 std::vector<std::string> ModuleCandidates() {
-  if (const char* named = std::getenv("DG_GMSH_MODULE")) return {named};
+  if (const char* named = std::getenv("DG_GMSH_MODULE")) {
+    // dlopen("") would give the program itself, not a module.
+    if (*named == '\0') {
+      throw Error("DG_GMSH_MODULE is set but empty", "loading the Gmsh module",
+                  "unset DG_GMSH_MODULE, or set it to the path of dynaguide-gmsh.so");
+    }
+    return {named};
+  }
   std::vector<std::string> candidates;
   std::error_code error;
   const fs::path program = fs::read_symlink("/proc/self/exe", error);

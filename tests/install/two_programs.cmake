@@ -73,3 +73,9 @@ if(result EQUAL 0 OR NOT err MATCHES "cannot load the Gmsh module"
    OR NOT err MATCHES "${WORK_DIR}/no-such-module.so: [^\n]*No such file or directory" OR NOT err MATCHES "DG_GMSH_MODULE")
   message(FATAL_ERROR "dynaguide mesh box with a missing module gave ${result}:\n${out}\n${err}")
 endif()
+execute_process(COMMAND ${CMAKE_COMMAND} -E env DG_GMSH_MODULE=
+    ${DYNAGUIDE} mesh box --tets 1000 --out ${WORK_DIR}/unwritten.msh
+  RESULT_VARIABLE result OUTPUT_VARIABLE out ERROR_VARIABLE err)
+if(result EQUAL 0 OR NOT err MATCHES "DG_GMSH_MODULE is set but empty")
+  message(FATAL_ERROR "dynaguide mesh box with DG_GMSH_MODULE empty gave ${result}:\n${out}\n${err}")
+endif()
