@@ -48,7 +48,7 @@ const gmsh_module::Functions* LoadModule() {
     // RTLD_LOCAL: Gmsh's libraries serve the module and nothing else.
     void* handle = dlopen(path.c_str(), RTLD_NOW | RTLD_LOCAL);
     if (!handle) {
-      tried += fmt::format("\n  {}: {}", path, dlerror());
+      tried += fmt::format("\n  {}", dlerror());  // names the path and why it failed
       continue;
     }
     const auto entry = reinterpret_cast<gmsh_module::EntryPoint>(dlsym(handle, gmsh_module::kEntryPoint));
