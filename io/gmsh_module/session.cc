@@ -20,12 +20,9 @@ Session::Session(SurfaceAlgorithm surface) : lock_(GmshMutex()) {
       gmsh::logger::start();  // keeps messages for getLastError
       gmsh::option::setNumber("General.NumThreads", 1);
       gmsh::option::setNumber("Mesh.RandomSeed", 1);
-      // Delaunay surfaces on CAD ellipsoids: Frontal-Delaunay ones left 3D
-      // Delaunay with boundary slivers its optimiser could not remove (radius
-      // ratio down to 2e-4). On the reparametrised patches of a segmented
-      // surface it is the other way round: Delaunay left a sliver of 0.02,
-      // Frontal-Delaunay gave 0.2. HXT (Algorithm3D = 10) is faster but gave a
-      // different mesh on each run, even on one thread.
+      // The surface algorithm is the caller's (module.cc says why). HXT
+      // (Algorithm3D = 10) is faster than Delaunay but gave a different mesh
+      // on each run, even on one thread.
       gmsh::option::setNumber("Mesh.Algorithm", static_cast<int>(surface));
       gmsh::option::setNumber("Mesh.Algorithm3D", 1);
       gmsh::option::setNumber("Mesh.Optimize", 1);
