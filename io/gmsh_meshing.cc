@@ -4,20 +4,18 @@
 
 #include <algorithm>
 #include <cstdlib>
-#include <filesystem>
 #include <map>
 #include <string>
 #include <vector>
 
 #include <fmt/format.h>
 
+#include "io/running_program.h"
 #include "sim/error.h"
 #include "sim/log.h"
 
 namespace dg::io {
 namespace {
-
-namespace fs = std::filesystem;
 
 constexpr const char* kModuleFix =
     "rebuild (cmake --build) or reinstall dynaguide, or set DG_GMSH_MODULE to the module's path";
@@ -32,14 +30,8 @@ std::vector<std::string> ModuleCandidates() {
     }
     return {named};
   }
-  std::vector<std::string> candidates;
-  std::error_code error;
-  const fs::path program = fs::read_symlink("/proc/self/exe", error);
-  if (!error) {
-    candidates.push_back((program.parent_path() / DG_GMSH_MODULE_FROM_BINDIR / kGmshModuleFile).lexically_normal());
-  }
-  candidates.push_back(DG_GMSH_MODULE_IN_BUILD_TREE);
-  return candidates;
+  return {(RunningProgramFolder() / DG_GMSH_MODULE_FROM_BINDIR / kGmshModuleFile).lexically_normal(),
+          DG_GMSH_MODULE_IN_BUILD_TREE};
 }
 
 const gmsh_module::Functions* LoadModule() {

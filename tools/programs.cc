@@ -1,20 +1,9 @@
 #include "tools/programs.h"
 
-#include <filesystem>
-#include <system_error>
-
-#include "sim/error.h"
+#include "io/running_program.h"
 
 namespace dg::tools {
 
-std::string ProgramBesideThis(const std::string& program) {
-  std::error_code error;
-  const std::filesystem::path running = std::filesystem::read_symlink("/proc/self/exe", error);
-  if (error) {
-    throw Error("cannot find the running executable's path: " + error.message(), "/proc/self/exe",
-                "mount /proc (Linux)");
-  }
-  return (running.parent_path() / program).string();
-}
+std::string ProgramBesideThis(const std::string& program) { return (io::RunningProgramFolder() / program).string(); }
 
 }  // namespace dg::tools
