@@ -6,13 +6,13 @@
 #include <chrono>
 #include <cstdio>
 #include <fstream>
+#include <map>
 #include <memory>
 #include <numeric>
 #include <random>
 #include <thread>
 
 #include <nlohmann/json.hpp>
-#include <tbb/global_control.h>
 
 #include "io/gmsh_mesher.h"
 #include "io/gmsh_reader.h"
@@ -21,6 +21,7 @@
 #include "sim/step_team.h"
 #include "sim/tled_solver.h"
 #include "tools/bench/bench_json.h"
+#include "tools/bench/rounds.h"
 #include "tools/json_text.h"
 #include "tools/phantom/heart_motion.h"
 #include "tools/phantom/phantom_spec.h"
@@ -96,10 +97,11 @@ std::vector<BenchProblem> ForwardProblems(const SimBenchOptions& options) {
 
 // Nanoseconds per pass of a StepTeam of `threads` workers with nothing to
 // do: the barrier (and the serial section's call) a forward step pays once.
+// A sample takes some 10 ms: short enough to take between every round.
 double MeasureBarrierNs(int threads) {
   if (threads < 2) return 0;
   sim::StepTeam team(threads);
-  constexpr int kSyncs = 200000;
+  constexpr int kSyncs = 20000;
   auto run = [&] { team.Run(kSyncs, [](int, int) {}, [](int) { return true; }); };
   run();  // wakes the workers and warms the lines the barrier uses
   const auto start = std::chrono::steady_clock::now();
@@ -151,21 +153,6 @@ int StepsPerRepeat(const SimBenchOptions& options) {
   return std::max(1, static_cast<int>(std::lround(options.simulated_per_repeat_s / options.dt_s)));
 }
 
-// Times `repeats` calls of advance(steps) after a warm-up; sorted tet-steps per second.
-template <typename Advance>
-std::vector<double> TimeRepeats(int tets, int steps, int repeats, Advance advance) {
-  advance(steps / 4 + 1);  // warm caches and threads
-  std::vector<double> rates;
-  for (int r = 0; r < repeats; ++r) {
-    const auto start = std::chrono::steady_clock::now();
-    advance(steps);
-    const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    rates.push_back(double(tets) * steps / wall_s);
-  }
-  std::sort(rates.begin(), rates.end());
-  return rates;
-}
-
 // The process's resident memory now (VmRSS of /proc/self/status), MB, once
 // the heap the run's earlier configurations freed is returned to the system,
 // so that the figure is this configuration's; 0 where /proc cannot tell.
@@ -186,8 +173,8 @@ double ResidentMegabytes() {
 
 template <typename T>
 SimBenchRecord MakeRecord(const std::string& name, const sim::TetMesh& mesh, int threads, const std::string& mode,
-                          const std::vector<double>& rates, const sim::StabilityReport& stability,
-                          const SimBenchOptions& options) {
+                          const std::vector<double>& rates, double resident_mb,
+                          const sim::StabilityReport& stability, const SimBenchOptions& options) {
   SimBenchRecord record;
   record.mesh = name;
   record.mesh_tets = mesh.num_tets();
@@ -195,7 +182,7 @@ SimBenchRecord MakeRecord(const std::string& name, const sim::TetMesh& mesh, int
   record.threads = threads;
   record.precision = sim::PrecisionOf<T>();
   record.mode = mode;
-  record.tet_steps_per_s = rates[rates.size() / 2];
+  record.tet_steps_per_s = MedianOfSorted(rates);
   record.tet_steps_per_s_min = rates.front();
   record.tet_steps_per_s_max = rates.back();
   record.realtime_factor = record.tet_steps_per_s / mesh.num_tets() * options.dt_s;
@@ -203,71 +190,131 @@ SimBenchRecord MakeRecord(const std::string& name, const sim::TetMesh& mesh, int
   record.dt_critical_s = stability.dt_critical_s;
   record.steps_per_repeat = StepsPerRepeat(options);
   record.repeats = options.repeats;
-  record.resident_mb = ResidentMegabytes();
+  record.resident_mb = resident_mb;
   return record;
 }
 
-// The same problem stepped by `threads` one-thread solvers at once, each on
-// its own model: what the machine gives this kernel on that many cores with
-// nothing shared, the ceiling for one solver on `threads` threads. Sorted
-// tet-steps per second, all solvers together.
+// The team a run on `threads` threads gets: as many workers as the process's
+// parallelism allows, the model built for as many parts (docs/solver.md,
+// "Subdomains").
+int TeamSize(int threads) { return std::min(threads, sim::DefaultTeamSize()); }
+
+// Samples, between rounds, the barrier of a team of each size that runs on
+// more than one thread.
+class BarrierSamples {
+ public:
+  explicit BarrierSamples(const std::vector<int>& threads) {
+    for (int t : threads) {
+      if (TeamSize(t) > 1) samples_[TeamSize(t)];
+    }
+  }
+  void Sample() {
+    for (auto& [team, ns] : samples_) ns.push_back(MeasureBarrierNs(team));
+  }
+  // The median at `threads` threads; 0 on one.
+  double MedianNs(int threads) {
+    const auto found = samples_.find(TeamSize(threads));
+    if (found == samples_.end()) return 0;
+    std::sort(found->second.begin(), found->second.end());
+    return MedianOfSorted(found->second);
+  }
+
+ private:
+  std::map<int, std::vector<double>> samples_;
+};
+
 template <typename T>
-std::vector<double> MeasureNothingShared(const BenchProblem& problem, int threads, const SimBenchOptions& options) {
+std::unique_ptr<sim::TledSolver<T>> MakeForwardSolver(const BenchProblem& problem, int team,
+                                                      const SimBenchOptions& options) {
   sim::SolverOptions solver_options;
   solver_options.dt_s = options.dt_s;
-  solver_options.threads = 1;
-  std::vector<std::unique_ptr<sim::TledSolver<T>>> solvers;
-  for (int t = 0; t < threads; ++t) {
-    solvers.push_back(std::make_unique<sim::TledSolver<T>>(
-        std::make_shared<const sim::TledModel<T>>(problem.mesh, sim::Material{}, 1), problem.conditions,
-        solver_options, &problem.stability));
-  }
-  const std::vector<double> targets(problem.conditions.prescribed_dofs.size(), -kPressDown_m);
+  solver_options.threads = team;
+  return std::make_unique<sim::TledSolver<T>>(
+      std::make_shared<const sim::TledModel<T>>(problem.mesh, sim::Material{}, team), problem.conditions,
+      solver_options, &problem.stability);
+}
+
+// Repeats of `solvers`, all stepped at once, each on a thread of its own
+// when there are several.
+template <typename T>
+TimedConfiguration ForwardConfiguration(const std::vector<std::unique_ptr<sim::TledSolver<T>>>& solvers,
+                                        const BenchProblem& problem, const std::vector<double>& targets,
+                                        const SimBenchOptions& options) {
   const int substeps = solvers.front()->substeps_per_step();
-  return TimeRepeats(threads * problem.mesh.num_tets(), StepsPerRepeat(options) * substeps, options.repeats,
-                     [&](int steps) {
-                       std::vector<std::thread> running;
-                       for (auto& solver : solvers) {
-                         running.emplace_back([&solver, &targets, steps, substeps] {
-                           solver->Advance(steps / substeps, targets);
-                         });
-                       }
-                       for (std::thread& thread : running) thread.join();
-                     });
+  TimedConfiguration timed;
+  timed.steps_per_repeat = StepsPerRepeat(options) * substeps;
+  timed.work_per_step = double(solvers.size()) * problem.mesh.num_tets();
+  timed.advance = [&solvers, &targets, substeps](int steps) {
+    if (solvers.size() == 1) {
+      solvers.front()->Advance(steps / substeps, targets);
+      return;
+    }
+    std::vector<std::thread> running;
+    for (const auto& solver : solvers) {
+      running.emplace_back([&solver, &targets, steps, substeps] { solver->Advance(steps / substeps, targets); });
+    }
+    for (std::thread& thread : running) thread.join();
+  };
+  return timed;
 }
 
+// One record per thread count: the solver on a team of that many threads
+// and, beside it on 2 or more, as many one-thread solvers as threads, each
+// on its own copy of the model, stepped at once (nothing shared: what the
+// machine gives this kernel on those cores, the threaded rate's ceiling).
+// All are timed in the same rounds.
 template <typename T>
-SimBenchRecord Measure(const BenchProblem& problem, int threads, const SimBenchOptions& options) {
-  tbb::global_control parallelism(tbb::global_control::max_allowed_parallelism, threads);
-  sim::SolverOptions solver_options;
-  solver_options.dt_s = options.dt_s;
-  sim::TledSolver<T> solver(std::make_shared<const sim::TledModel<T>>(problem.mesh, sim::Material{}),
-                            problem.conditions, solver_options, &problem.stability);
+std::vector<SimBenchRecord> MeasureForward(const BenchProblem& problem, const SimBenchOptions& options) {
   const std::vector<double> targets(problem.conditions.prescribed_dofs.size(), -kPressDown_m);
-  const std::vector<double> rates =
-      TimeRepeats(problem.mesh.num_tets(), StepsPerRepeat(options) * solver.substeps_per_step(), options.repeats,
-                  [&](int steps) { solver.Advance(steps / solver.substeps_per_step(), targets); });
-  SimBenchRecord record = MakeRecord<T>(problem.name, problem.mesh, threads, "forward", rates, problem.stability, options);
-  if (threads > 1) {
-    const std::vector<double> apart = MeasureNothingShared<T>(problem, threads, options);
-    record.nothing_shared_tet_steps_per_s = apart[apart.size() / 2];
+  // Each configuration's memory, measured with nothing else alive.
+  std::vector<double> resident_mb;
+  for (int threads : options.threads) {
+    const auto solver = MakeForwardSolver<T>(problem, TeamSize(threads), options);
+    solver->Advance(1, targets);
+    resident_mb.push_back(ResidentMegabytes());
   }
-  return record;
+  std::vector<std::vector<std::unique_ptr<sim::TledSolver<T>>>> teams(options.threads.size()), apart(options.threads.size());
+  std::vector<TimedConfiguration> timed;
+  for (size_t k = 0; k < options.threads.size(); ++k) {
+    teams[k].push_back(MakeForwardSolver<T>(problem, TeamSize(options.threads[k]), options));
+    timed.push_back(ForwardConfiguration<T>(teams[k], problem, targets, options));
+  }
+  for (size_t k = 0; k < options.threads.size(); ++k) {
+    if (options.threads[k] < 2) continue;
+    for (int t = 0; t < options.threads[k]; ++t) apart[k].push_back(MakeForwardSolver<T>(problem, 1, options));
+    timed.push_back(ForwardConfiguration<T>(apart[k], problem, targets, options));
+  }
+  BarrierSamples barrier(options.threads);
+  TimeInRounds(timed, options.repeats, [&] { barrier.Sample(); });
+
+  std::vector<SimBenchRecord> records;
+  size_t next_apart = options.threads.size();
+  for (size_t k = 0; k < options.threads.size(); ++k) {
+    SimBenchRecord record = MakeRecord<T>(problem.name, problem.mesh, options.threads[k], "forward", timed[k].rates,
+                                          resident_mb[k], problem.stability, options);
+    record.barrier_ns = barrier.MedianNs(options.threads[k]);
+    if (options.threads[k] > 1) record.nothing_shared_tet_steps_per_s = MedianOfSorted(timed[next_apart++].rates);
+    records.push_back(record);
+  }
+  return records;
 }
 
-// The image-constrained simulation in one mode on the phantom, its
-// constrained nodes (none in volume mode) set.
+// The image-constrained simulation in one mode on the phantom, on a team of
+// `team` workers, its constrained nodes (none in volume mode) set.
 template <typename T>
-sim::CoupledSimulation<T> MakeCoupled(const PhantomProblem& problem, sim::SimulationMode mode, bool concurrent,
-                                      int inverse_interval, const SimBenchOptions& options) {
+std::unique_ptr<sim::CoupledSimulation<T>> MakeCoupled(const PhantomProblem& problem, sim::SimulationMode mode,
+                                                       bool concurrent, int inverse_interval, int team,
+                                                       const SimBenchOptions& options) {
   sim::CoupledOptions coupled;
   coupled.mode = mode;
   coupled.solver.dt_s = options.dt_s;
+  coupled.solver.threads = team;
   coupled.concurrent = concurrent;
   coupled.inverse_interval_steps = inverse_interval;
-  sim::CoupledSimulation<T> simulation(std::make_shared<const sim::TledModel<T>>(problem.mesh, problem.material),
-                                       problem.motion, problem.fixed_nodes, coupled, &problem.stability);
-  if (mode != sim::SimulationMode::kVolume) simulation.SetConstrainedNodes(problem.constrained_nodes);
+  auto simulation = std::make_unique<sim::CoupledSimulation<T>>(
+      std::make_shared<const sim::TledModel<T>>(problem.mesh, problem.material, team), problem.motion,
+      problem.fixed_nodes, coupled, &problem.stability);
+  if (mode != sim::SimulationMode::kVolume) simulation->SetConstrainedNodes(problem.constrained_nodes);
   return simulation;
 }
 
@@ -282,15 +329,18 @@ void AdvanceFollowingMotion(sim::CoupledSimulation<T>& simulation, int steps, st
   simulation.Advance(steps, targets);
 }
 
+// Repeats of `simulation`, its constrained nodes following the motion model.
 template <typename T>
-std::vector<double> MeasureCoupledRates(const PhantomProblem& problem, sim::SimulationMode mode, bool concurrent,
-                                        int inverse_interval, int threads, const SimBenchOptions& options) {
-  tbb::global_control parallelism(tbb::global_control::max_allowed_parallelism, threads);
-  sim::CoupledSimulation<T> simulation = MakeCoupled<T>(problem, mode, concurrent, inverse_interval, options);
-  std::vector<T> motion(3 * size_t(problem.mesh.num_nodes()));
-  std::vector<double> targets;
-  return TimeRepeats(problem.mesh.num_tets(), StepsPerRepeat(options), options.repeats,
-                     [&](int steps) { AdvanceFollowingMotion(simulation, steps, motion, targets); });
+TimedConfiguration CoupledConfiguration(sim::CoupledSimulation<T>& simulation, const PhantomProblem& problem,
+                                        const SimBenchOptions& options) {
+  TimedConfiguration timed;
+  timed.steps_per_repeat = StepsPerRepeat(options);
+  timed.work_per_step = problem.mesh.num_tets();
+  timed.advance = [&simulation, motion = std::vector<T>(3 * size_t(problem.mesh.num_nodes())),
+                   targets = std::vector<double>()](int steps) mutable {
+    AdvanceFollowingMotion(simulation, steps, motion, targets);
+  };
+  return timed;
 }
 
 // The largest node distance from the motion model over one cardiac period,
@@ -298,15 +348,15 @@ std::vector<double> MeasureCoupledRates(const PhantomProblem& problem, sim::Simu
 template <typename T>
 double MotionError(const PhantomProblem& problem, sim::SimulationMode mode, int inverse_interval,
                    const SimBenchOptions& options) {
-  sim::CoupledSimulation<T> simulation = MakeCoupled<T>(problem, mode, true, inverse_interval, options);
+  const auto simulation = MakeCoupled<T>(problem, mode, true, inverse_interval, sim::DefaultTeamSize(), options);
   std::vector<T> motion(3 * size_t(problem.mesh.num_nodes()));
   std::vector<double> targets;
   const long long period_steps = std::llround(problem.motion->period_s() / options.dt_s);
   const int frame_steps = std::max(1, static_cast<int>(std::lround(1.0 / 30.0 / options.dt_s)));
   double largest = 0;
-  while (simulation.steps_taken() < period_steps) {
-    AdvanceFollowingMotion(simulation, frame_steps, motion, targets);
-    const std::span<const T> u = simulation.displacement();
+  while (simulation->steps_taken() < period_steps) {
+    AdvanceFollowingMotion(*simulation, frame_steps, motion, targets);
+    const std::span<const T> u = simulation->displacement();
     for (size_t a = 0; a < motion.size(); a += 3) {
       const double dx = double(u[a]) - motion[a], dy = double(u[a + 1]) - motion[a + 1],
                    dz = double(u[a + 2]) - motion[a + 2];
@@ -316,22 +366,47 @@ double MotionError(const PhantomProblem& problem, sim::SimulationMode mode, int 
   return largest;
 }
 
+// One record per thread count: the concurrent scheme and, for the modes with
+// recovered forces, the same run with inverse and forward one after the
+// other, all timed in the same rounds.
 template <typename T>
-SimBenchRecord MeasureCoupled(const PhantomProblem& problem, const std::string& mode_name, int inverse_interval,
-                              int threads, const SimBenchOptions& options) {
+std::vector<SimBenchRecord> MeasureCoupled(const PhantomProblem& problem, const std::string& mode_name,
+                                           int inverse_interval, const SimBenchOptions& options) {
   const sim::SimulationMode mode = sim::ParseSimulationMode(mode_name);
-  SimBenchRecord record = MakeRecord<T>("phantom", problem.mesh, threads, mode_name,
-                                        MeasureCoupledRates<T>(problem, mode, true, inverse_interval, threads, options),
-                                        problem.stability, options);
-  if (mode != sim::SimulationMode::kSurface) {
-    const std::vector<double> sequential =
-        MeasureCoupledRates<T>(problem, mode, false, inverse_interval, threads, options);
-    record.sequential_tet_steps_per_s = sequential[sequential.size() / 2];
-    record.concurrent_gain = record.tet_steps_per_s / record.sequential_tet_steps_per_s;
-    record.inverse_interval_steps = inverse_interval;
-    record.motion_error_m = MotionError<T>(problem, mode, inverse_interval, options);
+  const bool has_inverse = mode != sim::SimulationMode::kSurface;
+  std::vector<double> resident_mb;  // each configuration's, with nothing else alive
+  for (int threads : options.threads) {
+    const auto simulation = MakeCoupled<T>(problem, mode, true, inverse_interval, TeamSize(threads), options);
+    CoupledConfiguration<T>(*simulation, problem, options).advance(1);
+    resident_mb.push_back(ResidentMegabytes());
   }
-  return record;
+  std::vector<std::unique_ptr<sim::CoupledSimulation<T>>> simulations;
+  std::vector<TimedConfiguration> timed;
+  for (bool concurrent : {true, false}) {
+    if (!concurrent && !has_inverse) continue;
+    for (int threads : options.threads) {
+      simulations.push_back(MakeCoupled<T>(problem, mode, concurrent, inverse_interval, TeamSize(threads), options));
+      timed.push_back(CoupledConfiguration<T>(*simulations.back(), problem, options));
+    }
+  }
+  BarrierSamples barrier(options.threads);
+  TimeInRounds(timed, options.repeats, [&] { barrier.Sample(); });
+
+  const double motion_error_m = has_inverse ? MotionError<T>(problem, mode, inverse_interval, options) : 0;
+  std::vector<SimBenchRecord> records;
+  for (size_t k = 0; k < options.threads.size(); ++k) {
+    SimBenchRecord record = MakeRecord<T>("phantom", problem.mesh, options.threads[k], mode_name, timed[k].rates,
+                                          resident_mb[k], problem.stability, options);
+    record.barrier_ns = barrier.MedianNs(options.threads[k]);
+    if (has_inverse) {
+      record.sequential_tet_steps_per_s = MedianOfSorted(timed[options.threads.size() + k].rates);
+      record.concurrent_gain = record.tet_steps_per_s / record.sequential_tet_steps_per_s;
+      record.inverse_interval_steps = inverse_interval;
+      record.motion_error_m = motion_error_m;
+    }
+    records.push_back(record);
+  }
+  return records;
 }
 
 }  // namespace
@@ -339,12 +414,15 @@ SimBenchRecord MeasureCoupled(const PhantomProblem& problem, const std::string& 
 std::vector<SimBenchRecord> RunSimBench(const SimBenchOptions& options, bool progress) {
   if (options.repeats < 1) throw Error("--repeats must be at least 1", "dynaguide bench sim", "give e.g. 7");
   std::vector<SimBenchRecord> records;
-  auto report = [&] {
-    const SimBenchRecord& r = records.back();
-    if (!progress) return;
-    std::fprintf(stderr, "bench sim: %s, %s, %d tets, %s, %d thread%s: %.1f M tet-steps/s (median of %d)\n",
-                 r.mode.c_str(), r.mesh.c_str(), r.mesh_tets, sim::ToString(r.precision).c_str(), r.threads,
-                 r.threads > 1 ? "s" : "", r.tet_steps_per_s / 1e6, r.repeats);
+  // Appends the records of one configuration's thread counts, and says them.
+  auto add = [&](const std::vector<SimBenchRecord>& measured) {
+    for (const SimBenchRecord& r : measured) {
+      records.push_back(r);
+      if (!progress) continue;
+      std::fprintf(stderr, "bench sim: %s, %s, %d tets, %s, %d thread%s: %.1f M tet-steps/s (median of %d)\n",
+                   r.mode.c_str(), r.mesh.c_str(), r.mesh_tets, sim::ToString(r.precision).c_str(), r.threads,
+                   r.threads > 1 ? "s" : "", r.tet_steps_per_s / 1e6, r.repeats);
+    }
   };
   for (const std::string& mode : options.modes) {
     if (mode != "forward") sim::ParseSimulationMode(mode);  // rejects an unknown mode before any work
@@ -353,11 +431,8 @@ std::vector<SimBenchRecord> RunSimBench(const SimBenchOptions& options, bool pro
     if (mode == "forward") {
       for (const BenchProblem& problem : ForwardProblems(options)) {
         for (sim::Precision precision : options.precisions) {
-          for (int threads : options.threads) {
-            records.push_back(precision == sim::Precision::kFloat ? Measure<float>(problem, threads, options)
-                                                   : Measure<double>(problem, threads, options));
-            report();
-          }
+          add(precision == sim::Precision::kFloat ? MeasureForward<float>(problem, options)
+                                                  : MeasureForward<double>(problem, options));
         }
       }
       continue;
@@ -369,18 +444,13 @@ std::vector<SimBenchRecord> RunSimBench(const SimBenchOptions& options, bool pro
       const PhantomProblem problem = MakePhantomProblem(target);
       for (int interval : intervals) {
         for (sim::Precision precision : options.precisions) {
-          for (int threads : options.threads) {
-            records.push_back(precision == sim::Precision::kFloat
-                                  ? MeasureCoupled<float>(problem, mode, interval, threads, options)
-                                  : MeasureCoupled<double>(problem, mode, interval, threads, options));
-            report();
-          }
+          add(precision == sim::Precision::kFloat ? MeasureCoupled<float>(problem, mode, interval, options)
+                                                  : MeasureCoupled<double>(problem, mode, interval, options));
         }
       }
     }
   }
   for (SimBenchRecord& r : records) {
-    r.barrier_ns = MeasureBarrierNs(r.threads);
     for (const SimBenchRecord& one : records) {
       if (one.threads == 1 && one.mesh == r.mesh && one.mesh_tets == r.mesh_tets && one.mode == r.mode &&
           one.precision == r.precision && one.inverse_interval_steps == r.inverse_interval_steps) {

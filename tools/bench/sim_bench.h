@@ -22,7 +22,9 @@ struct SimBenchOptions {
   // combined and volume: forward steps per level of recovered forces
   // (sim::CoupledOptions::inverse_interval_steps), each measured.
   std::vector<int> inverse_intervals{sim::kDefaultInverseIntervalSteps};
-  int repeats = 7;                 // timed runs per configuration; the median is reported
+  // Timed runs per configuration, in rounds that run every thread count's
+  // configurations in turn (tools/bench/rounds.h); the median is reported.
+  int repeats = 7;
   double simulated_per_repeat_s = 0.05;  // 250 steps of 0.2 ms
   double dt_s = 2e-4;
 };
@@ -52,20 +54,20 @@ struct SimBenchRecord {
   // model (combined) should reproduce it.
   int inverse_interval_steps = 0;
   double motion_error_m = 0;
-  // The rate over the same configuration's on 1 thread in the same run (0 if not measured).
+  // The rate over the same configuration's on 1 thread, timed in the same rounds (0 if not measured).
   double speedup_over_1_thread = 0;
   // The solver's barrier (a sim::StepTeam pass with no work), per pass, at
-  // this thread count, measured in the same run; a forward step has one.
+  // this thread count, the median of samples taken between the rounds; a
+  // forward step has one.
   double barrier_ns = 0;
   // forward on 2 or more threads only (else 0): as many one-thread solvers as
   // threads, each on its own copy of the model, stepped at once, all their
   // tet-steps per second together: the machine's rate for this kernel on
-  // that many cores with nothing shared, measured in the same run.
+  // that many cores with nothing shared, timed in the same rounds.
   double nothing_shared_tet_steps_per_s = 0;
-  // The process's resident memory just after the timed repeats, the solver
-  // still alive and the heap earlier configurations freed returned: its
-  // arrays, the heap, and the pages of the libraries the program maps
-  // (docs/benchmarks.md).
+  // The process's resident memory with this configuration alone built and
+  // stepped, the heap earlier configurations freed returned: its arrays, the
+  // heap, and the pages of the libraries the program maps (docs/benchmarks.md).
   double resident_mb = 0;
 };
 

@@ -1,0 +1,72 @@
+// How `bench sim` times its configurations: in rounds, every configuration
+// once a round, so that each samples the same minutes of a drifting host; and
+// what its records then hold. No time is asserted, only the schedule and how
+// the repeats are summarised.
+#include <string>
+#include <vector>
+
+#include <catch2/catch.hpp>
+
+#include "tools/bench/rounds.h"
+#include "tools/bench/sim_bench.h"
+
+namespace dg::tools {
+namespace {
+
+TEST_CASE("TimeInRounds warms every configuration, then runs one repeat of each per round", "[tools][unit]") {
+  std::vector<std::string> calls;
+  std::vector<TimedConfiguration> configurations(3);
+  for (int k = 0; k < 3; ++k) {
+    configurations[k].steps_per_repeat = 40 * (k + 1);
+    configurations[k].work_per_step = 10;
+    configurations[k].advance = [&calls, k](int steps) {
+      calls.push_back(std::to_string(k) + ":" + std::to_string(steps));
+    };
+  }
+  TimeInRounds(configurations, 2, [&calls] { calls.push_back("between"); });
+  const std::vector<std::string> expected = {"0:11", "1:21", "2:31",                // warm-ups, a quarter and one step
+                                             "0:40", "1:80", "2:120", "between",  // round 1
+                                             "0:40", "1:80", "2:120", "between"}; // round 2
+  CHECK(calls == expected);
+  for (const TimedConfiguration& configuration : configurations) {
+    REQUIRE(configuration.rates.size() == 2);
+    CHECK(configuration.rates[0] <= configuration.rates[1]);
+    CHECK(configuration.rates[0] > 0);
+  }
+  CHECK(MedianOfSorted({1, 2, 3}) == 2);
+  CHECK(MedianOfSorted({}) == 0);
+}
+
+TEST_CASE("bench sim: every thread count's record from the same rounds, with its controls",
+          "[tools][integration]") {
+  SimBenchOptions options;
+  options.tets = {600};
+  options.threads = {1, 2};
+  options.precisions = {sim::Precision::kFloat};
+  options.repeats = 3;
+  options.simulated_per_repeat_s = 0.004;  // 20 steps
+  const std::vector<SimBenchRecord> records = RunSimBench(options, false);
+  REQUIRE(records.size() == 2);
+  for (const SimBenchRecord& r : records) {
+    CHECK(r.mode == "forward");
+    CHECK(r.repeats == 3);
+    CHECK(r.steps_per_repeat == 20);
+    CHECK(r.tet_steps_per_s_min <= r.tet_steps_per_s);
+    CHECK(r.tet_steps_per_s <= r.tet_steps_per_s_max);
+    CHECK(r.tet_steps_per_s_min > 0);
+    CHECK(r.resident_mb > 0);
+  }
+  const SimBenchRecord &one = records[0], &two = records[1];
+  CHECK(one.threads == 1);
+  CHECK(one.speedup_over_1_thread == 1.0);
+  CHECK(one.barrier_ns == 0);  // no team to synchronise
+  CHECK(one.nothing_shared_tet_steps_per_s == 0);
+  CHECK(two.threads == 2);
+  CHECK(two.speedup_over_1_thread == Approx(two.tet_steps_per_s / one.tet_steps_per_s));
+  CHECK(two.barrier_ns > 0);
+  CHECK(two.nothing_shared_tet_steps_per_s > 0);
+  CHECK(one.mesh_tets == two.mesh_tets);
+}
+
+}  // namespace
+}  // namespace dg::tools
