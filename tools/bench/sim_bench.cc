@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cstdio>
 #include <fstream>
+#include <limits>
 #include <map>
 #include <memory>
 #include <numeric>
@@ -97,16 +98,44 @@ std::vector<BenchProblem> ForwardProblems(const SimBenchOptions& options) {
 
 // Nanoseconds per pass of a StepTeam of `threads` workers with nothing to
 // do: the barrier (and the serial section's call) a forward step pays once.
-// A sample takes some 10 ms: short enough to take between every round.
+// A helper joins a run once its thread is free (sim/step_team.h), and passes
+// the caller runs alone synchronise nothing: the clock runs over the 20,000
+// passes from the first one every worker took part in (some 10 ms, short
+// enough to sample between every round). 0, with a warning, when the
+// workers have not all joined within a second.
 double MeasureBarrierNs(int threads) {
   if (threads < 2) return 0;
-  sim::StepTeam team(threads);
+  using Clock = std::chrono::steady_clock;
   constexpr int kSyncs = 20000;
-  auto run = [&] { team.Run(kSyncs, [](int, int) {}, [](int) { return true; }); };
-  run();  // wakes the workers and warms the lines the barrier uses
-  const auto start = std::chrono::steady_clock::now();
-  run();
-  return std::chrono::duration<double, std::nano>(std::chrono::steady_clock::now() - start).count() / kSyncs;
+  constexpr std::chrono::seconds kJoinLimit{1};
+  sim::StepTeam team(threads);
+  struct alignas(64) Joined {
+    bool yes = false;  // written by one worker only
+  };
+  std::vector<Joined> joined(threads);
+  const Clock::time_point called = Clock::now();
+  Clock::time_point start, end;
+  int first_full_pass = -1;
+  team.Run(
+      std::numeric_limits<int>::max(), [&](int worker, int) { joined[worker].yes = true; },
+      [&](int pass) {  // serial: every worker of this pass has arrived
+        if (first_full_pass >= 0) {
+          if (pass - first_full_pass < kSyncs) return true;
+          end = Clock::now();
+          return false;
+        }
+        if (std::all_of(joined.begin(), joined.end(), [](const Joined& worker) { return worker.yes; })) {
+          first_full_pass = pass;
+          start = Clock::now();
+        }
+        return first_full_pass >= 0 || Clock::now() - called < kJoinLimit;
+      });
+  if (first_full_pass < 0) {
+    std::fprintf(stderr, "bench sim: warning: the barrier of %d threads was not measured: its workers did not all "
+                 "join a run within a second (is the machine busy?)\n", threads);
+    return 0;
+  }
+  return std::chrono::duration<double, std::nano>(end - start).count() / kSyncs;
 }
 
 // The phantom's mesh and motion as `dynaguide phantom` makes them.
