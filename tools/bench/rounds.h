@@ -17,9 +17,9 @@ struct TimedConfiguration {
 // Times `repeats` repeats of every configuration in rounds: after a warm-up of
 // each (a quarter of a repeat), each round runs one repeat of every
 // configuration in turn, then calls `between_rounds` (e.g. to sample the
-// machine). Interleaved so, every configuration samples the same minutes of a
+// machine). Interleaved, every configuration samples the same minutes of a
 // host whose speed drifts, and the ratio of two configurations' medians
-// compares them on the same machine (docs/benchmarks.md, "Rounds").
+// compares them on the same machine (docs/benchmarks.md, `bench sim`).
 void TimeInRounds(std::vector<TimedConfiguration>& configurations, int repeats,
                   const std::function<void()>& between_rounds = {});
 

@@ -302,7 +302,8 @@ std::vector<SimBenchRecord> MeasureForward(const BenchProblem& problem, const Si
     solver->Advance(1, targets);
     resident_mb.push_back(ResidentMegabytes());
   }
-  std::vector<std::vector<std::unique_ptr<sim::TledSolver<T>>>> teams(options.threads.size()), apart(options.threads.size());
+  using Solvers = std::vector<std::unique_ptr<sim::TledSolver<T>>>;
+  std::vector<Solvers> teams(options.threads.size()), apart(options.threads.size());
   std::vector<TimedConfiguration> timed;
   for (size_t k = 0; k < options.threads.size(); ++k) {
     teams[k].push_back(MakeForwardSolver<T>(problem, TeamSize(options.threads[k]), options));
