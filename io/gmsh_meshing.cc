@@ -30,8 +30,15 @@ std::vector<std::string> ModuleCandidates() {
     }
     return {named};
   }
-  return {(RunningProgramFolder() / DG_GMSH_MODULE_FROM_BINDIR / kGmshModuleFile).lexically_normal(),
-          DG_GMSH_MODULE_IN_BUILD_TREE};
+  std::vector<std::string> candidates;
+  // Without the program's own folder the build tree's module can still serve.
+  try {
+    candidates.push_back((RunningProgramFolder() / DG_GMSH_MODULE_FROM_BINDIR / kGmshModuleFile).lexically_normal());
+  } catch (const Error& error) {
+    Logger("io").warn("not looking for the installed Gmsh module beside the program: {}", error.what());
+  }
+  candidates.push_back(DG_GMSH_MODULE_IN_BUILD_TREE);
+  return candidates;
 }
 
 const gmsh_module::Functions* LoadModule() {
