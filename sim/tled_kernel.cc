@@ -4,10 +4,13 @@
 #include <bit>
 #include <cstdint>
 #include <limits>
+#include <type_traits>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <tbb/partitioner.h>
+
+#include "sim/corner_loads.h"
 
 namespace dg::sim {
 
@@ -59,16 +62,27 @@ T ElementPass(const TledModel<T>& model, const T* __restrict u, T* __restrict fo
     T* __restrict Dinv = kMode == PassMode::kResolve ? edge_inverse + size_t(b) * 9 * W : nullptr;
     T* __restrict q_out = kMode == PassMode::kResolve ? weights + size_t(b) * 12 * W : nullptr;
     alignas(64) T J_lane[W];
+    // The corners' displacements, [corner][xyz][lane], loaded for the whole
+    // block where that is faster than the lane loop's gathers (corner_loads.h).
+    constexpr bool kCornersLoaded = kCornerLoadsTransposed && std::is_same_v<T, float>;
+    alignas(64) T corners[kCornersLoaded ? 12 * W : 1];
+    if constexpr (kCornersLoaded) LoadCornerDisplacements(nodes, u, corners);
 
 #pragma GCC ivdep
     for (int l = 0; l < W; ++l) {
-      const int n0 = 3 * nodes[l], n1 = 3 * nodes[W + l], n2 = 3 * nodes[2 * W + l],
-                n3 = 3 * nodes[3 * W + l];
+      // Component `axis` of corner c's displacement.
+      auto at = [&](int c, int axis) {
+        if constexpr (kCornersLoaded) {
+          return corners[(3 * c + axis) * W + l];
+        } else {
+          return u[3 * nodes[c * W + l] + axis];
+        }
+      };
       // Edge displacements d_c = u_c - u_0 (c = 1..3): since dN0 = -(dN1 + dN2 + dN3),
       // sum_a u_a (x) dN_a = sum_c d_c (x) dN_c.
-      const T d1x = u[n1] - u[n0], d1y = u[n1 + 1] - u[n0 + 1], d1z = u[n1 + 2] - u[n0 + 2];
-      const T d2x = u[n2] - u[n0], d2y = u[n2 + 1] - u[n0 + 1], d2z = u[n2 + 2] - u[n0 + 2];
-      const T d3x = u[n3] - u[n0], d3y = u[n3 + 1] - u[n0 + 1], d3z = u[n3 + 2] - u[n0 + 2];
+      const T d1x = at(1, 0) - at(0, 0), d1y = at(1, 1) - at(0, 1), d1z = at(1, 2) - at(0, 2);
+      const T d2x = at(2, 0) - at(0, 0), d2y = at(2, 1) - at(0, 1), d2z = at(2, 2) - at(0, 2);
+      const T d3x = at(3, 0) - at(0, 0), d3y = at(3, 1) - at(0, 1), d3z = at(3, 2) - at(0, 2);
       const T g1x = dN[0 * W + l], g1y = dN[1 * W + l], g1z = dN[2 * W + l];
       const T g2x = dN[3 * W + l], g2y = dN[4 * W + l], g2z = dN[5 * W + l];
       const T g3x = dN[6 * W + l], g3y = dN[7 * W + l], g3z = dN[8 * W + l];
@@ -143,9 +157,8 @@ T ElementPass(const TledModel<T>& model, const T* __restrict u, T* __restrict fo
         const T r00 = Dinv[0 * W + l], r01 = Dinv[1 * W + l], r02 = Dinv[2 * W + l];
         const T r10 = Dinv[3 * W + l], r11 = Dinv[4 * W + l], r12 = Dinv[5 * W + l];
         const T r20 = Dinv[6 * W + l], r21 = Dinv[7 * W + l], r22 = Dinv[8 * W + l];
-        const int corner_dof[4] = {n0, n1, n2, n3};
         for (int c = 0; c < 4; ++c) {
-          const int n = corner_dof[c];
+          const int n = 3 * nodes[c * W + l];
           const T rx = scaled_forces[n], ry = scaled_forces[n + 1], rz = scaled_forces[n + 2];
           q_out[(3 * c) * W + l] = r00 * rx + r01 * ry + r02 * rz;
           q_out[(3 * c + 1) * W + l] = r10 * rx + r11 * ry + r12 * rz;

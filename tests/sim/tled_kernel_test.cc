@@ -6,6 +6,7 @@
 #include <Eigen/Dense>
 #include <catch2/catch.hpp>
 
+#include "sim/corner_loads.h"
 #include "sim/tled_model.h"
 #include "tests/sim/box_mesh.h"
 
@@ -135,6 +136,35 @@ TEST_CASE("tled kernel: float forces agree with double", "[sim][unit]") {
   const Eigen::VectorXd f_double = NodalForces(TledModel<double>(mesh, material), u);
   const Eigen::VectorXd f_float = NodalForces(TledModel<float>(mesh, material), u);
   REQUIRE((f_float - f_double).cwiseAbs().maxCoeff() < 1e-4 * f_double.cwiseAbs().maxCoeff());
+}
+
+// The element pass's block-wide loads of corner displacements are the nodes'
+// values, bitwise, in every block (the last node's included, whose three
+// values end the array).
+TEST_CASE("tled kernel: corner displacements loaded a block at a time are the nodes'", "[sim][unit]") {
+  if constexpr (!kCornerLoadsTransposed) {
+    WARN("not checked: this build's target has no AVX-512, and the element pass loads corners lane by lane");
+  } else {
+    const TetMesh mesh = MakeBoxMesh(6, 5, 4, {0.05, 0.04, 0.03}, 0.3);
+    const TledModel<float> model(mesh, Material{});
+    constexpr int W = TledModel<float>::kLanes;
+    std::vector<float> u(3 * model.num_nodes());
+    std::mt19937 rng(5);
+    for (float& value : u) value = std::uniform_real_distribution<float>(-1, 1)(rng);
+    bool last_node_read = false;
+    for (int b = 0; b < model.num_blocks(); ++b) {
+      alignas(64) float corners[12 * W];
+      LoadCornerDisplacements(model.block_nodes(b), u.data(), corners);
+      for (int c = 0; c < 4; ++c) {
+        for (int l = 0; l < W; ++l) {
+          const int node = model.block_nodes(b)[c * W + l];
+          last_node_read |= node == model.num_nodes() - 1;
+          for (int axis = 0; axis < 3; ++axis) REQUIRE(corners[(3 * c + axis) * W + l] == u[3 * node + axis]);
+        }
+      }
+    }
+    REQUIRE(last_node_read);
+  }
 }
 
 // Lumped masses add up to rho times the volume.
