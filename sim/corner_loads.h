@@ -13,7 +13,7 @@ namespace dg::sim {
 // block, which make up some 60% of the pass on AVX-512 machines (a gather
 // fetches its lanes one by one); loading each node's x, y, z as one short
 // vector and transposing four of them at a time in registers does the same
-// work in about 45% of the time (docs/solver.md, "Stress and update").
+// work in about 40% of the time (docs/solver.md, "Stress and update").
 #if defined(__AVX512F__) && defined(__AVX512VL__)
 constexpr bool kCornerLoadsTransposed = true;
 

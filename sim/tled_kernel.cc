@@ -65,6 +65,7 @@ T ElementPass(const TledModel<T>& model, const T* __restrict u, T* __restrict fo
     // The corners' displacements, [corner][xyz][lane], loaded for the whole
     // block where that is faster than the lane loop's gathers (corner_loads.h).
     constexpr bool kCornersLoaded = kCornerLoadsTransposed && std::is_same_v<T, float>;
+    static_assert(!kCornersLoaded || W == 16, "LoadCornerDisplacements fills 16-lane blocks");
     alignas(64) T corners[kCornersLoaded ? 12 * W : 1];
     if constexpr (kCornersLoaded) LoadCornerDisplacements(nodes, u, corners);
 
