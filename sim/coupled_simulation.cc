@@ -170,6 +170,7 @@ void CoupledSimulation<T>::AdvanceCoupled(int steps) {
     const bool inverse_side_pass = p % passes_per_step == 1;  // sequential: the step's second pass
     const double fraction_end = double(p / passes_per_step + 1) / steps;
     const bool with_inverse = runs_inverse(first_step + p / passes_per_step);
+    if (!inverse_side_pass) solver.PrefetchCutLines(worker);
     if (options_.concurrent && with_inverse) {
       team_->ForEachChunkThen(
           worker, both_sides_homes,

@@ -64,20 +64,27 @@ Subdomains SplitIntoSubdomains(const TetMesh& mesh, int parts, int node_granular
   Subdomains split;
   split.node_begin = cut(high);
 
-  // Each part's elements, in order of their smallest node (then of their id),
-  // so that a block of neighbouring lanes shares nodes.
-  std::vector<int> order(E);
-  std::iota(order.begin(), order.end(), 0);
-  std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return smallest[a] < smallest[b]; });
+  // Each part's elements in order of their smallest node (then of their id),
+  // so that a block of neighbouring lanes shares nodes: the interior, then the halo.
+  split.order.resize(E);
+  std::iota(split.order.begin(), split.order.end(), 0);
+  std::stable_sort(split.order.begin(), split.order.end(),
+                   [&](int a, int b) { return smallest[a] < smallest[b]; });
   split.elements.resize(parts);
   for (int w = 0; w < parts; ++w) {
     const int first = split.node_begin[w], end = split.node_begin[w + 1];
-    for (int e : order) {
+    std::vector<int> halo;
+    for (int e : split.order) {
       if (smallest[e] >= end || largest[e] < first) continue;
-      bool touches = false;
-      for (int c = 0; c < 4; ++c) touches |= mesh.tets(c, e) >= first && mesh.tets(c, e) < end;
-      if (touches) split.elements[w].push_back(e);
+      int owned = 0;
+      for (int c = 0; c < 4; ++c) owned += mesh.tets(c, e) >= first && mesh.tets(c, e) < end;
+      if (owned == 4) {
+        split.elements[w].push_back(e);
+      } else if (owned > 0) {
+        halo.push_back(e);
+      }
     }
+    split.elements[w].insert(split.elements[w].end(), halo.begin(), halo.end());
   }
   return split;
 }

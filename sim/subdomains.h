@@ -12,9 +12,17 @@ namespace dg::sim {
 // halo it shares with its neighbours. A worker that computes its part's
 // elements has every force its nodes gather: no force crosses between cores,
 // at the price of computing the halo elements twice.
+//
+// Each part lists the elements that touch only its own nodes first and its
+// halo last, so that a worker reads the nodes other cores wrote at the end
+// of its pass, once what it asked for early has arrived (docs/solver.md,
+// "Subdomains"). Both groups keep the order of all elements, `order`.
 struct Subdomains {
   std::vector<int> node_begin;            // parts + 1 bounds, ascending, the last num_nodes
-  std::vector<std::vector<int>> elements;  // per part, in order of their smallest node
+  std::vector<std::vector<int>> elements;  // per part: its interior, then its halo
+  // Every element, by smallest node, then id: the order in which a node sums
+  // the forces of its elements, whatever the number of parts.
+  std::vector<int> order;
 };
 
 // Splits `mesh` (nodes in layout order, so that a range of nodes is a compact

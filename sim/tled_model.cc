@@ -46,6 +46,15 @@ std::vector<int> CutNodesTogether(const TetMesh& layout, const Subdomains& split
   return place;
 }
 
+// The lines of a 64-byte aligned per-node array (3 values of T a node) that
+// hold node a's values, each as the offset of its first value.
+template <typename T>
+void AddLinesOfNode(int a, std::vector<int32_t>* lines) {
+  constexpr int kValuesPerLine = 64 / sizeof(T);
+  const int32_t first = 3 * a / kValuesPerLine, last = (3 * a + 2) / kValuesPerLine;
+  for (int32_t line = first; line <= last; ++line) lines->push_back(line * kValuesPerLine);
+}
+
 // Moves layout node a to place[a].
 void RenumberNodes(TetMesh* mesh, const std::vector<int>& place) {
   Eigen::Matrix3Xd X(3, mesh->num_nodes());
@@ -114,7 +123,7 @@ TledModel<T>::TledModel(const TetMesh& mesh, const Material& material, int parts
   volume_m3_.assign(slots, T(0));
   edges_m_.assign(slots * 9, T(0));
   mass_kg_.assign(layout.num_nodes(), 0.0);
-  std::vector<bool> weighed(layout.num_tets(), false);
+  std::vector<double> element_volume(layout.num_tets());
 
   for (size_t slot = 0; slot < slots; ++slot) {
     const size_t b = slot / kLanes, l = slot % kLanes;
@@ -137,25 +146,32 @@ TledModel<T>::TledModel(const TetMesh& mesh, const Material& material, int parts
       }
     }
     volume_m3_[b * kLanes + l] = static_cast<T>(volume);
-    if (!weighed[e]) {  // a halo element's mass counts once
-      weighed[e] = true;
-      for (int c = 0; c < 4; ++c) mass_kg_[layout.tets(c, e)] += material_.density_kg_m3 * volume / 4.0;
-    }
+    element_volume[e] = volume;
   }
 
-  // Gather list: each node's incidences in its own part's copies of its
-  // elements, in slot order. A part lists its elements in the order of all
-  // elements (by smallest node, then id), so a node sums the same elements in
-  // the same order whatever the number of parts, as the masses are summed
-  // (in order of first placement, which is that order too): results do not
-  // depend on the parts, nor so on the team size the model was built for.
+  // Masses and gather lists take the elements in the order of all elements
+  // (by smallest node, then id), whatever the parts and wherever a part
+  // places an element: a node sums the same elements in the same order for
+  // any number of parts, so results do not depend on the parts, nor so on the
+  // team size the model was built for. A node gathers from its own part's
+  // copies of its elements.
+  for (int e : split.order) {
+    for (int c = 0; c < 4; ++c) mass_kg_[layout.tets(c, e)] += material_.density_kg_m3 * element_volume[e] / 4.0;
+  }
+  std::vector<int> rank(layout.num_tets());
+  for (size_t k = 0; k < split.order.size(); ++k) rank[split.order[k]] = static_cast<int>(k);
+  std::vector<size_t> slots_in_order;
+  for (size_t slot = 0; slot < slots; ++slot) {
+    if (slot_element[slot] >= 0) slots_in_order.push_back(slot);
+  }
+  std::stable_sort(slots_in_order.begin(), slots_in_order.end(),
+                   [&](size_t x, size_t y) { return rank[slot_element[x]] < rank[slot_element[y]]; });
   auto owns = [&](size_t slot, int node) {
     const int w = part_of_slot[slot];
     return node >= part_node_begin_[w] && node < part_node_begin_[w + 1];
   };
   gather_begin_.assign(layout.num_nodes() + 1, 0);
-  for (size_t slot = 0; slot < slots; ++slot) {
-    if (slot_element[slot] < 0) continue;
+  for (size_t slot : slots_in_order) {
     for (int c = 0; c < 4; ++c) {
       const int a = layout.tets(c, slot_element[slot]);
       if (owns(slot, a)) ++gather_begin_[a + 1];
@@ -164,12 +180,32 @@ TledModel<T>::TledModel(const TetMesh& mesh, const Material& material, int parts
   std::partial_sum(gather_begin_.begin(), gather_begin_.end(), gather_begin_.begin());
   gather_offsets_.resize(gather_begin_.back());
   std::vector<int32_t> filled(gather_begin_.begin(), gather_begin_.end() - 1);
-  for (size_t slot = 0; slot < slots; ++slot) {
-    if (slot_element[slot] < 0) continue;
+  for (size_t slot : slots_in_order) {
     const size_t b = slot / kLanes, l = slot % kLanes;
     for (int c = 0; c < 4; ++c) {
       const int a = layout.tets(c, slot_element[slot]);
       if (owns(slot, a)) gather_offsets_[filled[a]++] = static_cast<int32_t>((b * 12 + c * 3) * kLanes + l);
+    }
+  }
+  // The lines that cross between parts: each part's corners on another's nodes.
+  halo_lines_.resize(split.elements.size());
+  shared_lines_.resize(split.elements.size());
+  for (size_t slot = 0; slot < slots; ++slot) {
+    if (slot_element[slot] < 0) continue;
+    const int w = part_of_slot[slot];
+    for (int c = 0; c < 4; ++c) {
+      const int a = layout.tets(c, slot_element[slot]);
+      if (owns(slot, a)) continue;
+      const int owner = static_cast<int>(std::upper_bound(part_node_begin_.begin(), part_node_begin_.end(), a) -
+                                         part_node_begin_.begin()) - 1;
+      AddLinesOfNode<T>(a, &halo_lines_[w]);
+      AddLinesOfNode<T>(a, &shared_lines_[owner]);
+    }
+  }
+  for (auto* lists : {&halo_lines_, &shared_lines_}) {
+    for (std::vector<int32_t>& lines : *lists) {
+      std::sort(lines.begin(), lines.end());
+      lines.erase(std::unique(lines.begin(), lines.end()), lines.end());
     }
   }
   for (int a = 0; a < layout.num_nodes(); ++a) {

@@ -40,9 +40,10 @@ namespace dg::sim {
 // appear once in each part they touch (the halo). A node gathers only from its
 // own part's copies: the forces a worker sums are the ones it computed. The
 // nodes that other parts read then move to their part's ends, so that what
-// crosses between cores fills few cache lines; the element order stays the
-// one above, so a node sums its forces in the same order for any number of
-// parts. With one part the layout is the plain Morton one.
+// crosses between cores fills few cache lines, and each part lists its halo
+// after its interior, so that a worker reads them last. A node still sums its
+// forces in the order of all elements above, for any number of parts. With
+// one part the layout is the plain Morton one.
 //
 // Thread-safe to share read-only between any number of solvers.
 
@@ -106,6 +107,15 @@ class TledModel {
   int element_chunks() const { return static_cast<int>(chunk_block_begin_.size()) - 1; }
   int chunk_block_begin(int c) const { return chunk_block_begin_[c]; }
 
+  // The 64-byte lines of a per-node array (3 values of T a node, 64-byte
+  // aligned, layout order) that cross between cores each step when worker w
+  // runs part w, each as the offset of its first value: halo_lines(w) hold
+  // nodes that part w's elements read and another part owns, shared_lines(w)
+  // part w's nodes that another part's elements read (docs/solver.md,
+  // "Subdomains"). Empty for a model of one part.
+  std::span<const int32_t> halo_lines(int w) const { return halo_lines_[w]; }
+  std::span<const int32_t> shared_lines(int w) const { return shared_lines_[w]; }
+
   // Size of the element-major force array the kernel writes: [block][corner][xyz][lane].
   size_t force_array_size() const { return size_t(num_blocks_) * 12 * kLanes; }
   // Layout node a's incidences are gather_offsets()[gather_begin()[a] .. gather_begin()[a+1]):
@@ -130,6 +140,7 @@ class TledModel {
   std::vector<int32_t> gather_begin_;
   std::vector<int32_t> gather_offsets_;
   std::vector<double> mass_kg_;
+  std::vector<std::vector<int32_t>> halo_lines_, shared_lines_;  // per part
 };
 
 // Per-node values (3 per node) from `from` into `to`, node k going to node destination[k].

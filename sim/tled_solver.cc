@@ -226,6 +226,7 @@ void TledSolver<T>::Advance(int steps, std::span<const double> targets_m) {
       total,
       [&](int worker, int step) {
         const double fraction_end = double(step + 1) / total;
+        PrefetchCutLines(worker);
         team_->ForEachChunkThen(
             worker, homes_.elements, [&](int c) { ElementChunk(c); }, homes_.nodes,
             [&](int c) { NodeChunk(c, fraction_end); }, homes_.nodes_wait_for);
@@ -235,6 +236,20 @@ void TledSolver<T>::Advance(int steps, std::span<const double> targets_m) {
         CheckStep();
         return true;
       });
+}
+
+template <typename T>
+void TledSolver<T>::PrefetchCutLines(int worker) const {
+  // Only where worker w runs part w (the team's size is the model's parts).
+  if (homes_.nodes_wait_for != StepTeam::ThenWaitsFor::kOwnRange || worker >= model_->parts()) return;
+  // The other cores wrote these displacements at the end of the last step;
+  // the part's halo, at the end of its element pass, reads them. Asked for
+  // now, they cross while the interior is computed.
+  for (int32_t line : model_->halo_lines(worker)) __builtin_prefetch(u_.data() + line, 0, 3);
+  // The other cores read these lines of the next state's buffer two steps
+  // ago; taking them back for writing now keeps the node pass's stores from
+  // waiting on the invalidations. Nobody reads that buffer during this step.
+  for (int32_t line : model_->shared_lines(worker)) __builtin_prefetch(u_next_.data() + line, 1, 3);
 }
 
 template <typename T>

@@ -165,6 +165,9 @@ class TledSolver {
   // nodal forces (3 per node, as GatherNodalForce sums them) if the caller
   // gathered them; null gathers here.
   void NodeChunk(int chunk, double fraction_end, const T* gathered = nullptr);
+  // Worker `worker`'s requests, at a pass's start, for the lines of the cut
+  // its part exchanges with the others (TledModel::halo_lines, shared_lines).
+  void PrefetchCutLines(int worker) const;
   void FinishStep();
   void CheckStep();
   bool EnergyBlowingUp() const;

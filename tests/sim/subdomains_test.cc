@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <random>
+#include <span>
+#include <utility>
 #include <set>
 
 #include <Eigen/Dense>
@@ -25,8 +27,9 @@ TetMesh LayoutBox() {
 }
 
 // Against a brute-force reading of the definition: part w holds exactly the
-// elements with a node in its range, each once, in the order of their
-// smallest node; its bounds are whole granules; the parts' lists are even.
+// elements with a node in its range, each once, first those with all their
+// nodes in it, then the halo, each group in the order of their smallest node;
+// its bounds are whole granules; the parts' lists are even.
 TEST_CASE("subdomains: each part holds exactly the elements that touch its nodes", "[sim][unit]") {
   const TetMesh mesh = LayoutBox();
   constexpr int kGranule = 32;
@@ -35,6 +38,13 @@ TEST_CASE("subdomains: each part holds exactly the elements that touch its nodes
     REQUIRE(split.node_begin.size() == size_t(parts) + 1);
     REQUIRE(split.node_begin.front() == 0);
     REQUIRE(split.node_begin.back() == mesh.num_nodes());
+    // All elements, by smallest node, then id.
+    REQUIRE(split.order.size() == size_t(mesh.num_tets()));
+    for (size_t k = 1; k < split.order.size(); ++k) {
+      const int before = split.order[k - 1], after = split.order[k];
+      const int smallest_before = mesh.tets.col(before).minCoeff(), smallest_after = mesh.tets.col(after).minCoeff();
+      CHECK((smallest_before < smallest_after || (smallest_before == smallest_after && before < after)));
+    }
     size_t listed = 0, largest_part = 0;
     for (int w = 0; w < parts; ++w) {
       const int first = split.node_begin[w], end = split.node_begin[w + 1];
@@ -47,9 +57,19 @@ TEST_CASE("subdomains: each part holds exactly the elements that touch its nodes
         if (touches) expected.push_back(e);
       }
       std::vector<int> got = split.elements[w];
-      std::vector<int> smallest;
-      for (int e : got) smallest.push_back(mesh.tets.col(e).minCoeff());
-      CHECK(std::is_sorted(smallest.begin(), smallest.end()));
+      auto in_range = [&](int e) {
+        int owned = 0;
+        for (int c = 0; c < 4; ++c) owned += mesh.tets(c, e) >= first && mesh.tets(c, e) < end;
+        return owned == 4;
+      };
+      const auto halo = std::partition_point(got.begin(), got.end(), in_range);
+      CHECK(std::none_of(halo, got.end(), in_range));
+      CHECK((parts == 1) == (halo == got.end()));
+      for (auto group : {std::pair(got.begin(), halo), std::pair(halo, got.end())}) {
+        std::vector<int> smallest;
+        for (auto e = group.first; e != group.second; ++e) smallest.push_back(mesh.tets.col(*e).minCoeff());
+        CHECK(std::is_sorted(smallest.begin(), smallest.end()));
+      }
       std::sort(got.begin(), got.end());
       CHECK(got == expected);
       listed += got.size();
@@ -124,6 +144,28 @@ TEST_CASE("subdomains: the nodes on the cut sit together at the parts' ends", "[
   // Part 1 reads part 0's last nodes, every one of them; part 0 reads part 1's first.
   CHECK(*read_from_other[1].begin() == cut - int(read_from_other[1].size()));
   CHECK(*read_from_other[0].rbegin() == cut + int(read_from_other[0].size()) - 1);
+
+  // The lines the model lists as crossing: of a per-node array (3 floats a
+  // node, 16 a line), those holding a value of a node the part reads of the
+  // other (halo_lines) or the other reads of it (shared_lines).
+  auto lines_of = [](const std::set<int>& nodes) {
+    std::vector<int32_t> lines;
+    for (int a : nodes) {
+      for (int value = 3 * a; value < 3 * a + 3; ++value) lines.push_back(value / 16 * 16);
+    }
+    std::sort(lines.begin(), lines.end());
+    lines.erase(std::unique(lines.begin(), lines.end()), lines.end());
+    return lines;
+  };
+  auto listed = [](std::span<const int32_t> lines) { return std::vector<int32_t>(lines.begin(), lines.end()); };
+  for (int w = 0; w < 2; ++w) {
+    CHECK(listed(model.halo_lines(w)) == lines_of(read_from_other[w]));
+    CHECK(listed(model.shared_lines(w)) == lines_of(read_from_other[1 - w]));
+  }
+  // Together, the nodes' 12 bytes each fill as few lines as they can, plus
+  // one where a range starts inside a line.
+  const size_t cut_nodes = read_from_other[0].size() + read_from_other[1].size();
+  CHECK(model.halo_lines(0).size() + model.halo_lines(1).size() <= (12 * cut_nodes + 63) / 64 + 2);
 }
 
 }  // namespace
