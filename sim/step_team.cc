@@ -60,9 +60,7 @@ void StepTeam::Run(int passes, const std::function<void(int worker, int pass)>& 
                    const std::function<bool(int pass)>& after) {
   if (passes <= 0) return;
   State& s = *state_;
-  // The last run's helpers left right after its final barrier; one that the
-  // machine has not scheduled since must be gone before the state is reset.
-  while (s.helpers_in_run.load(std::memory_order_acquire) > 0) std::this_thread::yield();
+  WaitForHelpers();  // before the state is reset
   s.pass = &pass;
   s.after = &after;
   s.passes = passes;
@@ -108,22 +106,64 @@ void StepTeam::Help(const std::shared_ptr<State>& state, int worker, std::uint32
   }
 }
 
+void StepTeam::WaitForHelpers() const {
+  // The last run's helpers leave right after its final barrier; one that the
+  // machine has not scheduled since may still be on its way out.
+  while (state_->helpers_in_run.load(std::memory_order_acquire) > 0) std::this_thread::yield();
+}
+
+std::vector<StepTeam::WorkerTime> StepTeam::Timing() const {
+  WaitForHelpers();
+  std::vector<WorkerTime> times;
+  for (const State::Timed& timed : state_->timing) times.push_back(timed.time);
+  return times;
+}
+
+void StepTeam::ResetTiming() {
+  WaitForHelpers();
+  for (State::Timed& timed : state_->timing) timed.time = {};
+}
+
 void StepTeam::WorkPasses(State& s, int worker) {
+  // Two clock reads a pass; a team of one has nothing to wait for.
+  const bool timed = s.timing.size() > 1;
+  WorkerTime& time = s.timing[worker].time;
+  Clock::time_point mark = timed ? Clock::now() : Clock::time_point{};
   while (!s.finished) {
     (*s.pass)(worker, s.current_pass);
-    Arrive(s);
+    if (!timed) {
+      Arrive(s);
+      continue;
+    }
+    const Clock::time_point worked = Clock::now();
+    const bool serial = Arrive(s);
+    const Clock::time_point released = Clock::now();
+    const double at_barrier_s = std::chrono::duration<double>(released - worked).count();
+    ++time.passes;
+    time.working_s += std::chrono::duration<double>(worked - mark).count();
+    if (serial) {
+      time.serial_s += at_barrier_s;
+    } else {
+      time.waiting_s += at_barrier_s;
+      if (at_barrier_s >= kLongWait_s) {
+        time.long_waiting_s += at_barrier_s;
+        ++time.long_waits;
+      }
+    }
+    mark = released;
   }
 }
 
-void StepTeam::Arrive(State& s) {
+bool StepTeam::Arrive(State& s) {
   const std::uint32_t generation = s.generation.load(std::memory_order_acquire);
   if (s.arrived.fetch_add(1, std::memory_order_acq_rel) + 1 == s.members) {
     s.arrived.store(0, std::memory_order_relaxed);
     EndPass(s);
     Publish(s.generation, s.sleepers);
-  } else {
-    WaitWhileEquals(s.generation, generation, s.sleepers);
+    return true;
   }
+  WaitWhileEquals(s.generation, generation, s.sleepers);
+  return false;
 }
 
 void StepTeam::EndPass(State& s) {

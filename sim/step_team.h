@@ -50,6 +50,25 @@ class StepTeam {
 
   int size() const { return size_; }
 
+  // Where a worker's time went in the passes it worked (docs/solver.md,
+  // "Threads"). A team of one does not time its passes.
+  struct WorkerTime {
+    long long passes = 0;
+    double working_s = 0;  // in pass()
+    double waiting_s = 0;  // at the barriers, for the others
+    double serial_s = 0;   // at the barriers where it arrived last: the serial section and the release
+    // Of waiting_s, the waits of kLongWait_s or more, and how many: the other
+    // workers were stopped (the host interrupted their cores, a page fault)
+    // rather than behind by their share of the work.
+    double long_waiting_s = 0;
+    long long long_waits = 0;
+  };
+  static constexpr double kLongWait_s = 10e-6;
+  // Each worker's time since the team was built or the last ResetTiming().
+  // Call between runs.
+  std::vector<WorkerTime> Timing() const;
+  void ResetTiming();
+
   // Runs passes 0, 1, ..., passes - 1: pass(worker, p) on every worker in the
   // team at that pass, then after(p) once, serially, when all have finished
   // it. Stops early when after() returns false. Rethrows what after() threw.
@@ -83,7 +102,12 @@ class StepTeam {
       std::atomic<int> first_done{0};      // the range's first-phase chunks done (ForEachChunkThen)
     };
     explicit State(int workers)
-        : claims(workers), take_cost(workers), join_request(workers), admitted(workers), admitted_generation(workers) {}
+        : claims(workers),
+          take_cost(workers),
+          timing(workers),
+          join_request(workers),
+          admitted(workers),
+          admitted_generation(workers) {}
 
     std::vector<Claim> claims;  // per home range, reset for every pass
 
@@ -93,6 +117,12 @@ class StepTeam {
       double own_chunks = 0;
     };
     std::vector<TakeCost> take_cost;
+
+    // Per worker, written by that worker only.
+    struct alignas(64) Timed {
+      WorkerTime time;
+    };
+    std::vector<Timed> timing;
 
     // The run in progress: its id (0: none), its functions and its pass.
     std::atomic<std::uint32_t> run_id{0};
@@ -159,8 +189,11 @@ class StepTeam {
   static void EndPass(State& state);
   // Worker `worker`'s task for run `run_id`: joins if the run is still on.
   static void Help(const std::shared_ptr<State>& state, int worker, std::uint32_t run_id);
-  // The barrier at the end of a pass; the last to arrive runs the serial section.
-  static void Arrive(State& state);
+  // The barrier at the end of a pass; the last to arrive runs the serial
+  // section (and returns true).
+  static bool Arrive(State& state);
+  // Waits until the last run's helpers have left it.
+  void WaitForHelpers() const;
 
   int size_ = 1;
   std::function<void(std::function<void()>)> launch_;

@@ -108,6 +108,8 @@ class TledSolver {
   // The fraction of dt_cr a step may take (SolverOptions::stability_safety resolved).
   double stability_safety() const { return safety_; }
   int threads() const { return team_->size(); }
+  // The team that steps the solver, e.g. for where its workers' time goes (StepTeam::Timing).
+  StepTeam& team() { return *team_; }
   double internal_dt_s() const { return options_.dt_s / substeps_; }
   long long steps_taken() const { return internal_steps_; }
   double time_s() const { return internal_steps_ * internal_dt_s(); }

@@ -1,6 +1,7 @@
 #include "sim/step_team.h"
 
 #include <atomic>
+#include <chrono>
 #include <stdexcept>
 #include <vector>
 
@@ -115,6 +116,52 @@ TEST_CASE("step team: a failing or stopping serial section ends the run", "[sim]
         return pass < 9;
       });
   REQUIRE(passes_run == 10);
+}
+
+// Timing accounts for the caller's whole run: its time in passes, waiting
+// and in serial sections adds up to the run's wall time (no interval lost or
+// counted twice), each worker counts the passes it worked, and a reset clears it.
+TEST_CASE("step team: each worker's time in passes, at barriers and in serial sections", "[sim][unit]") {
+  constexpr int kPasses = 2000;  // some 30 ms
+  StepTeam team(2);
+  auto spin = [](int iterations) {
+    volatile double sink = 0;
+    for (int i = 0; i < iterations; ++i) sink = sink + i;
+  };
+  // The first run starts TBB's threads; timing starts over after it.
+  team.Run(10, [&](int, int) { spin(100); }, [&](int) { return true; });
+  team.ResetTiming();
+  const auto start = std::chrono::steady_clock::now();
+  team.Run(
+      kPasses, [&](int worker, int) { spin(worker == 0 ? 2000 : 6000); }, [&](int) { return true; });
+  const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  const std::vector<StepTeam::WorkerTime> times = team.Timing();
+  REQUIRE(times.size() == 2);
+  const StepTeam::WorkerTime& caller = times[0];
+  CHECK(caller.passes == kPasses);
+  CHECK(caller.working_s > 0);
+  const double accounted_s = caller.working_s + caller.waiting_s + caller.serial_s;
+  CHECK(accounted_s <= wall_s);
+  // Unaccounted: Run()'s set-up and end, and the helper's launch (on a busy
+  // machine the caller may be preempted there). A worker's waiting or serial
+  // sections left out would miss half the run or more: the helper spins
+  // three times as long a pass as the caller.
+  CHECK(accounted_s >= 0.98 * wall_s - 1e-3);
+  CHECK(caller.long_waiting_s <= caller.waiting_s);
+  // The helper works from the pass after it joined (none on a busy machine).
+  CHECK(times[1].passes <= kPasses);
+  CHECK((times[1].passes > 0) == (times[1].working_s > 0));
+
+  team.ResetTiming();
+  for (const StepTeam::WorkerTime& time : team.Timing()) {
+    CHECK(time.passes == 0);
+    CHECK(time.working_s + time.waiting_s + time.serial_s == 0);
+  }
+  // A team of one has nothing to wait for and does not time its passes.
+  StepTeam alone(1);
+  alone.Run(10, [&](int, int) { spin(100); }, [&](int) { return true; });
+  REQUIRE(alone.Timing().size() == 1);
+  CHECK(alone.Timing()[0].passes == 0);
 }
 
 }  // namespace
