@@ -146,6 +146,19 @@ def nothing_shared(r):
     return f"; nothing shared: {mega(rate)} M" if rate else ""
 
 
+def step_split(r):
+    """ '; a step: work A / B us, at the barrier C us (D in waits of 10 us or more);
+    the host took E% of each core', where the two-thread record holds them."""
+    working = r.get("working_us_per_step")
+    if not working:
+        return ""
+    text = (f"; a step: work {' / '.join(num(us) for us in working)} us, at the barrier "
+            f"{num(r['barrier_us_per_step'])} us ({num(r['long_waits_us_per_step'])} in waits of 10 us or more)")
+    if r.get("host_took_percent"):
+        text += f"; the host took {num(r['host_took_percent'])}% of each core"
+    return text
+
+
 def solver_rows(t):
     for threads in (1, 2):
         r = pick("sim_forward.json", mesh_tets=19551, precision="float", mode="forward",
@@ -166,7 +179,7 @@ def solver_rows(t):
             t.add(f"TLED forward, 20k-tet mesh file, {label}, 1 / 2 threads",
                   f"{mega(rs[0]['tet_steps_per_s'])} / {mega(rs[1]['tet_steps_per_s'])} "
                   f"M tet-steps/s (2 / 1: {num(rs[1]['speedup_over_1_thread'])}x, "
-                  f"barrier {num(rs[1]['barrier_ns'])} ns{nothing_shared(rs[1])})", "",
+                  f"barrier {num(rs[1]['barrier_ns'])} ns{nothing_shared(rs[1])}{step_split(rs[1])})", "",
                   "sim_mesh_file.json", rs)
     r = pick("sim_memory.json", threads=2, mode="forward", precision="float")
     if r and r.get("resident_mb"):

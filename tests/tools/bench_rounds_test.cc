@@ -7,6 +7,7 @@
 
 #include <catch2/catch.hpp>
 
+#include "tools/bench/host_interruptions.h"
 #include "tools/bench/rounds.h"
 #include "tools/bench/sim_bench.h"
 
@@ -23,8 +24,9 @@ TEST_CASE("TimeInRounds warms every configuration, then runs one repeat of each 
       calls.push_back(std::to_string(k) + ":" + std::to_string(steps));
     };
   }
+  configurations[1].after_warm_up = [&calls] { calls.push_back("1 warm"); };
   TimeInRounds(configurations, 2, [&calls] { calls.push_back("between"); });
-  const std::vector<std::string> expected = {"0:11", "1:21", "2:31",                // warm-ups, a quarter and one step
+  const std::vector<std::string> expected = {"0:11", "1:21", "1 warm", "2:31",      // warm-ups, a quarter and one step
                                              "0:40", "1:80", "2:120", "between",  // round 1
                                              "0:40", "1:80", "2:120", "between"}; // round 2
   CHECK(calls == expected);
@@ -61,11 +63,38 @@ TEST_CASE("bench sim: every thread count's record from the same rounds, with its
   CHECK(one.speedup_over_1_thread == 1.0);
   CHECK(one.barrier_ns == 0);  // no team to synchronise
   CHECK(one.nothing_shared_tet_steps_per_s == 0);
+  CHECK(one.working_us_per_step.empty());  // one thread: nothing to wait for
+  CHECK(one.host.per_core_percent == 0);
   CHECK(two.threads == 2);
   CHECK(two.speedup_over_1_thread == Approx(two.tet_steps_per_s / one.tet_steps_per_s));
   CHECK(two.barrier_ns > 0);
   CHECK(two.nothing_shared_tet_steps_per_s > 0);
+  // Each worker that joined (the helper may not on a busy machine) worked, and
+  // the long waits are part of the time at the barrier.
+  CHECK(two.working_us_per_step.size() >= 1);
+  CHECK(two.working_us_per_step.size() <= 2);
+  for (double us : two.working_us_per_step) CHECK(us > 0);
+  CHECK(two.long_waits_us_per_step >= 0);
+  CHECK(two.long_waits_us_per_step <= two.barrier_us_per_step);
+  CHECK(two.host.any_core_percent >= two.host.per_core_percent);
   CHECK(one.mesh_tets == two.mesh_tets);
+}
+
+// The share of a span the union of gap intervals covers: overlapping,
+// nested, unsorted and partly outside intervals, counted once.
+TEST_CASE("host interruptions: the union of gaps, clipped to the span", "[tools][unit]") {
+  // Over [0, 10): [0, 0.5) + [1, 5) + [7, 8) + [9, 10) = 6.5.
+  CHECK(CoveredFraction({{2, 5}, {1, 3}, {7, 8}, {-1, 0.5}, {9, 12}, {1.5, 2.5}}, 0, 10) == Approx(0.65));
+  CHECK(CoveredFraction({}, 0, 10) == 0);
+  CHECK(CoveredFraction({{11, 12}}, 0, 10) == 0);
+  CHECK(CoveredFraction({{-5, 15}}, 0, 10) == 1);
+  CHECK(CoveredFraction({{1, 2}}, 3, 3) == 0);
+  // Two cores probed at once: at least one is interrupted whenever either is.
+  const HostInterruptions host = MeasureHostInterruptions(2, std::chrono::milliseconds(20));
+  CHECK(host.per_core_percent >= 0);
+  CHECK(host.any_core_percent >= host.per_core_percent);
+  CHECK(host.any_core_percent <= 100);
+  CHECK(host.gaps_per_ms >= 0);
 }
 
 }  // namespace

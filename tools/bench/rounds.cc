@@ -10,6 +10,7 @@ void TimeInRounds(std::vector<TimedConfiguration>& configurations, int repeats,
   for (TimedConfiguration& configuration : configurations) {
     configuration.rates.clear();
     configuration.advance(configuration.steps_per_repeat / 4 + 1);  // warms caches and threads
+    if (configuration.after_warm_up) configuration.after_warm_up();
   }
   for (int round = 0; round < repeats; ++round) {
     for (TimedConfiguration& configuration : configurations) {

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <cstring>
 #include <fstream>
 #include <limits>
 #include <map>
@@ -22,6 +23,7 @@
 #include "sim/step_team.h"
 #include "sim/tled_solver.h"
 #include "tools/bench/bench_json.h"
+#include "tools/bench/host_interruptions.h"
 #include "tools/bench/rounds.h"
 #include "tools/json_text.h"
 #include "tools/phantom/heart_motion.h"
@@ -228,29 +230,70 @@ SimBenchRecord MakeRecord(const std::string& name, const sim::TetMesh& mesh, int
 // "Subdomains").
 int TeamSize(int threads) { return std::min(threads, sim::DefaultTeamSize()); }
 
-// Samples, between rounds, the barrier of a team of each size that runs on
-// more than one thread.
-class BarrierSamples {
+// Samples, between rounds, the machine a team of each size that runs on more
+// than one thread meets: its barrier, and what the host takes from that many
+// cores (tools/bench/host_interruptions.h).
+class MachineSamples {
  public:
-  explicit BarrierSamples(const std::vector<int>& threads) {
+  explicit MachineSamples(const std::vector<int>& threads) {
     for (int t : threads) {
       if (TeamSize(t) > 1) samples_[TeamSize(t)];
     }
   }
   void Sample() {
-    for (auto& [team, ns] : samples_) ns.push_back(MeasureBarrierNs(team));
+    for (auto& [team, samples] : samples_) {
+      samples.barrier_ns.push_back(MeasureBarrierNs(team));
+      samples.host.push_back(MeasureHostInterruptions(team, kHostSample));
+    }
   }
-  // The median at `threads` threads; 0 on one.
-  double MedianNs(int threads) {
-    const auto found = samples_.find(TeamSize(threads));
-    if (found == samples_.end()) return 0;
-    std::sort(found->second.begin(), found->second.end());
-    return MedianOfSorted(found->second);
+  // Medians at `threads` threads; 0 on one.
+  double BarrierNs(int threads) {
+    Samples* samples = Find(threads);
+    if (!samples) return 0;
+    std::sort(samples->barrier_ns.begin(), samples->barrier_ns.end());
+    return MedianOfSorted(samples->barrier_ns);
+  }
+  HostInterruptions Host(int threads) {
+    Samples* samples = Find(threads);
+    if (!samples) return {};
+    auto median = [&](double HostInterruptions::*field) {
+      std::vector<double> values;
+      for (const HostInterruptions& host : samples->host) values.push_back(host.*field);
+      std::sort(values.begin(), values.end());
+      return MedianOfSorted(values);
+    };
+    return {median(&HostInterruptions::per_core_percent), median(&HostInterruptions::any_core_percent),
+            median(&HostInterruptions::gaps_per_ms)};
   }
 
  private:
-  std::map<int, std::vector<double>> samples_;
+  // Long enough for some tens of the host's interruptions, short enough to
+  // sample between every round.
+  static constexpr std::chrono::milliseconds kHostSample{20};
+  struct Samples {
+    std::vector<double> barrier_ns;
+    std::vector<HostInterruptions> host;
+  };
+  Samples* Find(int threads) {
+    const auto found = samples_.find(TeamSize(threads));
+    return found == samples_.end() ? nullptr : &found->second;
+  }
+  std::map<int, Samples> samples_;
 };
+
+// Where the workers of `team` spent a step of the timed repeats (its timing
+// reset after the warm-up): one pass a step.
+void RecordTeamTiming(const sim::StepTeam& team, SimBenchRecord* record) {
+  const std::vector<sim::StepTeam::WorkerTime> times = team.Timing();
+  if (times.size() < 2) return;
+  for (const sim::StepTeam::WorkerTime& time : times) {
+    if (time.passes == 0) continue;  // a helper that never joined
+    const double per_step_us = 1e6 / double(time.passes);
+    record->working_us_per_step.push_back(time.working_s * per_step_us);
+    record->barrier_us_per_step += (time.waiting_s + time.serial_s) * per_step_us / double(times.size());
+    record->long_waits_us_per_step += time.long_waiting_s * per_step_us / double(times.size());
+  }
+}
 
 template <typename T>
 std::unique_ptr<sim::TledSolver<T>> MakeForwardSolver(const BenchProblem& problem, int team,
@@ -308,22 +351,25 @@ std::vector<SimBenchRecord> MeasureForward(const BenchProblem& problem, const Si
   for (size_t k = 0; k < options.threads.size(); ++k) {
     teams[k].push_back(MakeForwardSolver<T>(problem, TeamSize(options.threads[k]), options));
     timed.push_back(ForwardConfiguration<T>(teams[k], problem, targets, options));
+    timed.back().after_warm_up = [&solver = *teams[k].front()] { solver.team().ResetTiming(); };
   }
   for (size_t k = 0; k < options.threads.size(); ++k) {
     if (options.threads[k] < 2) continue;
     for (int t = 0; t < options.threads[k]; ++t) apart[k].push_back(MakeForwardSolver<T>(problem, 1, options));
     timed.push_back(ForwardConfiguration<T>(apart[k], problem, targets, options));
   }
-  BarrierSamples barrier(options.threads);
-  TimeInRounds(timed, options.repeats, [&] { barrier.Sample(); });
+  MachineSamples machine(options.threads);
+  TimeInRounds(timed, options.repeats, [&] { machine.Sample(); });
 
   std::vector<SimBenchRecord> records;
   size_t next_apart = options.threads.size();
   for (size_t k = 0; k < options.threads.size(); ++k) {
     SimBenchRecord record = MakeRecord<T>(problem.name, problem.mesh, options.threads[k], "forward", timed[k].rates,
                                           resident_mb[k], problem.stability, options);
-    record.barrier_ns = barrier.MedianNs(options.threads[k]);
+    record.barrier_ns = machine.BarrierNs(options.threads[k]);
+    record.host = machine.Host(options.threads[k]);
     if (options.threads[k] > 1) record.nothing_shared_tet_steps_per_s = MedianOfSorted(timed[next_apart++].rates);
+    RecordTeamTiming(teams[k].front()->team(), &record);
     records.push_back(record);
   }
   return records;
@@ -419,15 +465,16 @@ std::vector<SimBenchRecord> MeasureCoupled(const PhantomProblem& problem, const 
       timed.push_back(CoupledConfiguration<T>(*simulations.back(), problem, options));
     }
   }
-  BarrierSamples barrier(options.threads);
-  TimeInRounds(timed, options.repeats, [&] { barrier.Sample(); });
+  MachineSamples machine(options.threads);
+  TimeInRounds(timed, options.repeats, [&] { machine.Sample(); });
 
   const double motion_error_m = has_inverse ? MotionError<T>(problem, mode, inverse_interval, options) : 0;
   std::vector<SimBenchRecord> records;
   for (size_t k = 0; k < options.threads.size(); ++k) {
     SimBenchRecord record = MakeRecord<T>("phantom", problem.mesh, options.threads[k], mode_name, timed[k].rates,
                                           resident_mb[k], problem.stability, options);
-    record.barrier_ns = barrier.MedianNs(options.threads[k]);
+    record.barrier_ns = machine.BarrierNs(options.threads[k]);
+    record.host = machine.Host(options.threads[k]);
     if (has_inverse) {
       record.sequential_tet_steps_per_s = MedianOfSorted(timed[options.threads.size() + k].rates);
       record.concurrent_gain = record.tet_steps_per_s / record.sequential_tet_steps_per_s;
@@ -494,6 +541,8 @@ std::vector<SimBenchRecord> RunSimBench(const SimBenchOptions& options, bool pro
 void WriteSimBenchJson(const std::string& path, const std::vector<SimBenchRecord>& records) {
   std::vector<std::string> texts;
   for (const SimBenchRecord& r : records) {
+    nlohmann::json working_us = nlohmann::json::array();
+    for (double us : r.working_us_per_step) working_us.push_back(Significant(us, 4));
     const nlohmann::ordered_json record = {{"mesh", r.mesh},
                                            {"mesh_tets", r.mesh_tets},
                                            {"mesh_nodes", r.mesh_nodes},
@@ -506,6 +555,12 @@ void WriteSimBenchJson(const std::string& path, const std::vector<SimBenchRecord
                                            {"speedup_over_1_thread", Significant(r.speedup_over_1_thread, 4)},
                                            {"barrier_ns", Significant(r.barrier_ns, 4)},
                                            {"nothing_shared_tet_steps_per_s", Significant(r.nothing_shared_tet_steps_per_s, 6)},
+                                           {"working_us_per_step", working_us},
+                                           {"barrier_us_per_step", Significant(r.barrier_us_per_step, 4)},
+                                           {"long_waits_us_per_step", Significant(r.long_waits_us_per_step, 4)},
+                                           {"host_took_percent", Significant(r.host.per_core_percent, 3)},
+                                           {"host_took_any_core_percent", Significant(r.host.any_core_percent, 3)},
+                                           {"host_gaps_per_ms", Significant(r.host.gaps_per_ms, 3)},
                                            {"resident_mb", Significant(r.resident_mb, 4)},
                                            {"realtime_factor", Significant(r.realtime_factor, 6)},
                                            {"dt_s", Significant(r.dt_s, 6)},
@@ -524,10 +579,21 @@ void WriteSimBenchJson(const std::string& path, const std::vector<SimBenchRecord
 std::string SimBenchTable(const std::vector<SimBenchRecord>& records) {
   std::string table =
       "| mode | mesh | tets | nodes | precision | threads | M tet-steps/s (median) | min-max | x 1 thread | "
-      "barrier ns | nothing shared M | resident MB | real-time factor | concurrent gain | inverse every | motion error um | dt_cr ms |\n"
-      "|---|---|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
+      "barrier ns | nothing shared M | work us/step | at barrier us/step (long waits) | host took % (any core) | "
+      "resident MB | real-time factor | concurrent gain | inverse every | motion error um | dt_cr ms |\n"
+      "|---|---|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
   for (const SimBenchRecord& r : records) {
     char gain[16] = "-", speedup[16] = "-", barrier[16] = "-", interval[16] = "-", error[16] = "-", apart[16] = "-";
+    char at_barrier[32] = "-", host[32] = "-";
+    char working[64] = "-";  // each worker's, "86.2/88.9"
+    for (size_t w = 0; w < r.working_us_per_step.size(); ++w) {
+      const size_t used = w == 0 ? 0 : std::strlen(working);
+      std::snprintf(working + used, sizeof working - used, "%s%.1f", w == 0 ? "" : "/", r.working_us_per_step[w]);
+    }
+    if (!r.working_us_per_step.empty()) {
+      std::snprintf(at_barrier, sizeof at_barrier, "%.1f (%.1f)", r.barrier_us_per_step, r.long_waits_us_per_step);
+    }
+    if (r.threads > 1) std::snprintf(host, sizeof host, "%.1f (%.1f)", r.host.per_core_percent, r.host.any_core_percent);
     if (r.nothing_shared_tet_steps_per_s > 0) std::snprintf(apart, sizeof apart, "%.1f", r.nothing_shared_tet_steps_per_s / 1e6);
     if (r.concurrent_gain > 0) std::snprintf(gain, sizeof gain, "%.2f", r.concurrent_gain);
     if (r.inverse_interval_steps > 0) {
@@ -536,10 +602,10 @@ std::string SimBenchTable(const std::vector<SimBenchRecord>& records) {
     }
     if (r.speedup_over_1_thread > 0) std::snprintf(speedup, sizeof speedup, "%.2f", r.speedup_over_1_thread);
     if (r.barrier_ns > 0) std::snprintf(barrier, sizeof barrier, "%.0f", r.barrier_ns);
-    table += Printed("| %s | %s | %d | %d | %s | %d | %.1f | %.1f-%.1f | %s | %s | %s | %.0f | %.2f | %s | %s | %s | %.3f |\n",
+    table += Printed("| %s | %s | %d | %d | %s | %d | %.1f | %.1f-%.1f | %s | %s | %s | %s | %s | %s | %.0f | %.2f | %s | %s | %s | %.3f |\n",
                      r.mode.c_str(), r.mesh.c_str(), r.mesh_tets, r.mesh_nodes, sim::ToString(r.precision).c_str(), r.threads,
                      r.tet_steps_per_s / 1e6, r.tet_steps_per_s_min / 1e6, r.tet_steps_per_s_max / 1e6, speedup,
-                     barrier, apart, r.resident_mb, r.realtime_factor, gain, interval, error, r.dt_critical_s * 1e3);
+                     barrier, apart, working, at_barrier, host, r.resident_mb, r.realtime_factor, gain, interval, error, r.dt_critical_s * 1e3);
   }
   return table;
 }

@@ -5,6 +5,7 @@
 
 #include "sim/coupled_simulation.h"
 #include "sim/precision.h"
+#include "tools/bench/host_interruptions.h"
 
 namespace dg::tools {
 
@@ -65,6 +66,17 @@ struct SimBenchRecord {
   // tet-steps per second together: the machine's rate for this kernel on
   // that many cores with nothing shared, timed in the same rounds.
   double nothing_shared_tet_steps_per_s = 0;
+  // forward on 2 or more threads only (else empty and 0): where the solver's
+  // workers spent a step of the timed repeats (sim::StepTeam::Timing), us:
+  // each worker's work, the workers' mean time at the barrier (waiting for
+  // the others, or running the serial section), and of that the waits of
+  // 10 us or more (a worker stopped, not behind by its share of the work).
+  std::vector<double> working_us_per_step;
+  double barrier_us_per_step = 0;
+  double long_waits_us_per_step = 0;
+  // On 2 or more threads (else 0): what the host took from that many cores,
+  // the median of samples taken between the rounds (tools/bench/host_interruptions.h).
+  HostInterruptions host;
   // The process's resident memory with this configuration alone built and
   // stepped, the heap earlier configurations freed returned: its arrays, the
   // heap, and the pages of the libraries the program maps (docs/benchmarks.md).
