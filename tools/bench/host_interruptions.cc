@@ -38,7 +38,7 @@ HostInterruptions MeasureHostInterruptions(int threads, std::chrono::millisecond
       const Clock::time_point now = Clock::now();
       if (now - last >= kHostGap) {
         mine.emplace_back(std::chrono::duration<double>(last - start).count(),
-                                std::chrono::duration<double>(now - start).count());
+                          std::chrono::duration<double>(now - start).count());
       }
       last = now;
     }

@@ -8,7 +8,7 @@ namespace dg::tools {
 
 // What the host takes from the cores a benchmark runs on: each of `threads`
 // threads reads the clock in a tight loop for `duration`, all at once, and a
-// gap of kGap or more between two reads is time its core spent elsewhere (a
+// gap of kHostGap or more between two reads is time its core spent elsewhere (a
 // timer tick, an interrupt, the host running another virtual CPU on it). A
 // threaded solver waits at its barrier whenever any of its cores is taken,
 // two solvers sharing nothing each only when its own is (docs/benchmarks.md).

@@ -281,17 +281,17 @@ class MachineSamples {
   std::map<int, Samples> samples_;
 };
 
-// Where the workers of `team` spent a step of the timed repeats (its timing
-// reset after the warm-up): one pass a step.
+// Where the workers of `team` that joined spent a step of the timed repeats
+// (its timing reset after the warm-up): one pass a step. A team of one
+// records nothing.
 void RecordTeamTiming(const sim::StepTeam& team, SimBenchRecord* record) {
-  const std::vector<sim::StepTeam::WorkerTime> times = team.Timing();
-  if (times.size() < 2) return;
-  for (const sim::StepTeam::WorkerTime& time : times) {
-    if (time.passes == 0) continue;  // a helper that never joined
+  std::vector<sim::StepTeam::WorkerTime> joined = team.Timing();
+  std::erase_if(joined, [](const sim::StepTeam::WorkerTime& time) { return time.passes == 0; });
+  for (const sim::StepTeam::WorkerTime& time : joined) {
     const double per_step_us = 1e6 / double(time.passes);
     record->working_us_per_step.push_back(time.working_s * per_step_us);
-    record->barrier_us_per_step += (time.waiting_s + time.serial_s) * per_step_us / double(times.size());
-    record->long_waits_us_per_step += time.long_waiting_s * per_step_us / double(times.size());
+    record->barrier_us_per_step += (time.waiting_s + time.serial_s) * per_step_us / double(joined.size());
+    record->long_waits_us_per_step += time.long_waiting_s * per_step_us / double(joined.size());
   }
 }
 
