@@ -156,6 +156,8 @@ void CoupledSimulation<T>::AdvanceCoupled(int steps) {
   const ChunkHomes& homes = solver.homes_;
   std::vector<int> both_sides_homes(homes.elements.size());
   for (size_t w = 0; w < homes.elements.size(); ++w) both_sides_homes[w] = 2 * homes.elements[w];
+  StepTeam::ThenOrder both_sides_node_order = homes.node_order;
+  for (int& needs : both_sides_node_order.needs) needs *= 2;
   // Each side's step is one pass of StepTeam::ForEachChunkThen: elements,
   // then nodes. Concurrent: one pass a step for both sides, their element
   // chunks interleaved (so that a worker's home range holds both sides'
@@ -192,15 +194,15 @@ void CoupledSimulation<T>::AdvanceCoupled(int steps) {
             solver.NodeChunk(c, fraction_end, forward_forces);
             inverse.NodeChunk(c, inverse_forces);
           },
-          homes.nodes_wait_for);
+          both_sides_node_order);
     } else if (!inverse_side_pass) {
       team_->ForEachChunkThen(
           worker, homes.elements, [&](int c) { solver.ElementChunk(c); }, homes.nodes,
-          [&](int c) { solver.NodeChunk(c, fraction_end); }, homes.nodes_wait_for);
+          [&](int c) { solver.NodeChunk(c, fraction_end); }, homes.node_order);
     } else if (with_inverse) {
       team_->ForEachChunkThen(
           worker, homes.elements, [&](int c) { inverse.ElementChunk(c); }, homes.nodes,
-          [&](int c) { inverse.NodeChunk(c); }, homes.nodes_wait_for);
+          [&](int c) { inverse.NodeChunk(c); }, homes.node_order);
     }
   };
   // The step's end: the inverse side's checks, the next step's loads, the

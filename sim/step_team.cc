@@ -197,8 +197,23 @@ void StepTeam::EndPass(State& s) {
 
 void StepTeam::ResetClaims(State& s) {
   for (State::Claim& claim : s.claims) {
-    for (std::atomic<int>& next : claim.next) next.store(0, std::memory_order_relaxed);
+    claim.first_ends.store(0, std::memory_order_relaxed);
     claim.first_done.store(0, std::memory_order_relaxed);
+    claim.next_then.store(0, std::memory_order_relaxed);
+    claim.adopted.store(false, std::memory_order_relaxed);
+  }
+}
+
+int StepTeam::ClaimFirst(int range, int count, bool from_end, int leave) {
+  constexpr std::uint64_t kOneFromEnd = std::uint64_t(1) << 32;
+  std::atomic<std::uint64_t>& ends = state_->claims[range].first_ends;
+  std::uint64_t seen = ends.load(std::memory_order_relaxed);
+  for (;;) {
+    const int from_start = static_cast<int>(seen & 0xffffffffu), from_back = static_cast<int>(seen >> 32);
+    if (count - from_start - from_back <= leave) return -1;
+    if (ends.compare_exchange_weak(seen, seen + (from_end ? kOneFromEnd : 1), std::memory_order_relaxed)) {
+      return from_end ? count - 1 - from_back : from_start;
+    }
   }
 }
 

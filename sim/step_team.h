@@ -76,30 +76,43 @@ class StepTeam {
   void Run(int passes, const std::function<void(int worker, int pass)>& pass,
            const std::function<bool(int pass)>& after);
 
-  // Which `first` chunks a range's `then` chunks wait for (ForEachChunkThen).
-  enum class ThenWaitsFor {
-    kOwnRange,   // range w's `then` chunks read only what range w's `first` chunks wrote
-    kAllRanges,  // they may read what any `first` chunk wrote
+  // When a `then` chunk may start (ForEachChunkThen). Without per_range,
+  // `then` chunks may read what any `first` chunk wrote and start once all
+  // are done. With per_range, range w's `then` chunks read only what range
+  // w's `first` chunks wrote: order[k], for k in [then_homes[w],
+  // then_homes[w + 1]), lists them in the order they start, and needs[k]
+  // (non-decreasing within the range) says how many of range w's `first`
+  // chunks, counted from its start, order[k] reads.
+  struct ThenOrder {
+    bool per_range = false;
+    std::vector<int> order, needs;
   };
   // Inside a pass, two phases: first(c) for every chunk of first_homes, then
   // then(c) for every chunk of then_homes, each exactly once over the team,
   // worker w starting on its home ranges [homes[w], homes[w + 1])
-  // (non-decreasing). `first` chunks are then taken from other ranges, less
-  // the reserve, `then` chunks only from a worker not in the run. A range's `then` chunks start once the `first` chunks they wait
-  // for are done. With kOwnRange one pass and one barrier do what two passes
-  // did: a worker goes on to its own second phase as soon as its own first
-  // phase is done (docs/solver.md, "Threads").
+  // (non-decreasing). A range's `first` chunks are handed out from its start
+  // to its owner and from its end to takers, who leave a working owner its
+  // reserve; `then` chunks are taken only from a worker not in the run.
+  // Per range, one pass and one barrier do what two passes did, and the owner
+  // runs each `then` chunk as soon as the `first` chunks it reads are done:
+  // the forces it gathers are still in the core's nearest caches
+  // (docs/solver.md, "Threads").
   template <typename First, typename Then>
   void ForEachChunkThen(int worker, std::span<const int> first_homes, First&& first,
-                        std::span<const int> then_homes, Then&& then, ThenWaitsFor waits);
+                        std::span<const int> then_homes, Then&& then, const ThenOrder& then_order);
 
  private:
   // Everything a run shares, owned jointly by the team and the tasks it
   // enqueued (a task may start after its run, or its team, has ended).
   struct State {
     struct alignas(64) Claim {
-      std::atomic<int> next[2] = {0, 0};  // per phase: the next of the range's chunks to hand out
-      std::atomic<int> first_done{0};      // the range's first-phase chunks done (ForEachChunkThen)
+      // The range's first-phase chunks handed out from its start (low half)
+      // and from its end (high half), in one word so that the two ends never
+      // hand out the same chunk.
+      std::atomic<std::uint64_t> first_ends{0};
+      std::atomic<int> first_done{0};      // the range's first-phase chunks done
+      std::atomic<int> next_then{0};       // the next of its second-phase chunks to hand out
+      std::atomic<bool> adopted{false};    // per_range: a worker runs the range of an owner not in the run
     };
     explicit State(int workers)
         : claims(workers),
@@ -161,19 +174,30 @@ class StepTeam {
   void RecordTake(int taker, double taken_ns, double own_ns);
 
   using Clock = std::chrono::steady_clock;
+  // Hands out the next first-phase chunk of `range` (of `count` chunks), from
+  // its start or its end, as an offset in the range; -1 when no more than
+  // `leave` chunks are left unclaimed.
+  int ClaimFirst(int range, int count, bool from_end, int leave);
   struct OwnChunks {
     int count = 0;
     double mean_ns = 0;  // 0 in a team of one, which does not time them
   };
-  // Runs the chunks of `worker`'s own range of `phase` until none is left.
+  // Runs `range`'s first-phase chunks from its start until none is left.
   template <typename Body>
-  OwnChunks RunOwn(int worker, int phase, std::span<const int> homes, Body& body);
-  // Then takes chunks of the other ranges of `phase`, from those `ready` says
-  // may start, leaving each working owner its reserve. `count_first_done`:
-  // a taken chunk counts towards its range's first_done.
-  template <typename Body, typename Ready>
-  void TakeOthers(int worker, int phase, std::span<const int> homes, double own_ns, Body& body, Ready&& ready,
-                  bool count_first_done);
+  OwnChunks RunFirstFromStart(int range, std::span<const int> homes, Body& body);
+  // Runs `range`'s first-phase chunks from its start and, as the chunks they
+  // read are done, its `then` chunks in `then_order` (per_range).
+  template <typename First, typename Then>
+  OwnChunks RunRangeInterleaved(int range, std::span<const int> first_homes, First& first,
+                                std::span<const int> then_homes, Then& then, const ThenOrder& then_order);
+  // Takes first-phase chunks from the end of `owner`'s range, leaving a
+  // working owner its reserve.
+  template <typename Body>
+  void TakeFirstFromEnd(int worker, int owner, std::span<const int> homes, double own_ns, Body& body);
+  // Whether all of `range`'s first-phase chunks are done.
+  bool FirstDone(int range, std::span<const int> homes) const {
+    return state_->claims[range].first_done.load(std::memory_order_acquire) == homes[range + 1] - homes[range];
+  }
   // Spins, then yields, until ready(): for a chunk a working thread is finishing.
   template <typename Ready>
   static void WaitUntil(Ready&& ready) {
@@ -211,55 +235,88 @@ int DefaultTeamSize();
 
 template <typename First, typename Then>
 void StepTeam::ForEachChunkThen(int worker, std::span<const int> first_homes, First&& first,
-                                std::span<const int> then_homes, Then&& then, ThenWaitsFor waits) {
+                                std::span<const int> then_homes, Then&& then, const ThenOrder& then_order) {
   DG_CHECK(first_homes.size() == size_t(size_) + 1 && then_homes.size() == size_t(size_) + 1);
   std::vector<State::Claim>& claims = state_->claims;
-  auto first_done = [&](int range) {
-    return claims[range].first_done.load(std::memory_order_acquire) == first_homes[range + 1] - first_homes[range];
-  };
-  auto all_first_done = [&] {
-    for (int range = 0; range < size_; ++range) {
-      if (!first_done(range)) return false;
+  if (then_order.per_range) {
+    DG_CHECK(then_order.order.size() == size_t(then_homes.back()) &&
+             then_order.needs.size() == then_order.order.size());
+    const OwnChunks own = RunRangeInterleaved(worker, first_homes, first, then_homes, then, then_order);
+    for (int k = 1; k < size_; ++k) {
+      const int owner = (worker + k) % size_;
+      // A range whose owner is not in the run is run by the first worker to
+      // get there, in its own order; the others take from its end.
+      if (!InRun(owner) && !claims[owner].adopted.exchange(true, std::memory_order_relaxed)) {
+        RunRangeInterleaved(owner, first_homes, first, then_homes, then, then_order);
+      }
+      TakeFirstFromEnd(worker, owner, first_homes, own.mean_ns, first);
     }
-    return true;
-  };
-  auto any = [](int) { return true; };
-  const OwnChunks own_first = RunOwn(worker, 0, first_homes, first);
-  claims[worker].first_done.fetch_add(own_first.count, std::memory_order_release);
-  if (size_ == 1) {
-    RunOwn(worker, 1, then_homes, then);
     return;
   }
-  if (waits == ThenWaitsFor::kAllRanges) {
-    TakeOthers(worker, 0, first_homes, own_first.mean_ns, first, any, true);
-    WaitUntil(all_first_done);
-  } else {
-    // Only a chunk of this range that another worker took can still be running.
-    WaitUntil([&] { return first_done(worker); });
+  const OwnChunks own_first = RunFirstFromStart(worker, first_homes, first);
+  for (int k = 1; k < size_; ++k) {
+    TakeFirstFromEnd(worker, (worker + k) % size_, first_homes, own_first.mean_ns, first);
   }
-  const OwnChunks own_then = RunOwn(worker, 1, then_homes, then);
-  if (waits == ThenWaitsFor::kOwnRange) TakeOthers(worker, 0, first_homes, own_first.mean_ns, first, any, true);
+  WaitUntil([&] {
+    for (int range = 0; range < size_; ++range) {
+      if (!FirstDone(range, first_homes)) return false;
+    }
+    return true;
+  });
   // Second-phase chunks are taken only from an owner not in the run. A taken
   // chunk's results are what its owner reads first in the next pass (a node
   // chunk writes the next state of its part's nodes): taking one from a
   // working owner slows the owner's next pass, which the taker's timing does
   // not see, so the next pass is more out of balance and more is taken
-  // (docs/solver.md, "Threads"). A range whose first phase is still running
-  // is left to whoever finishes its last chunk.
-  TakeOthers(worker, 1, then_homes, own_then.mean_ns, then,
-             [&](int owner) { return !InRun(owner) && first_done(owner); }, false);
+  // (docs/solver.md, "Threads").
+  for (int k = 0; k < size_; ++k) {
+    const int owner = (worker + k) % size_;
+    if (k > 0 && InRun(owner)) continue;
+    std::atomic<int>& next = claims[owner].next_then;
+    for (int chunk; (chunk = then_homes[owner] + next.fetch_add(1, std::memory_order_relaxed)) < then_homes[owner + 1];) {
+      then(chunk);
+    }
+  }
 }
 
 template <typename Body>
-StepTeam::OwnChunks StepTeam::RunOwn(int worker, int phase, std::span<const int> homes, Body& body) {
-  std::atomic<int>& next = state_->claims[worker].next[phase];
+StepTeam::OwnChunks StepTeam::RunFirstFromStart(int range, std::span<const int> homes, Body& body) {
+  const int count = homes[range + 1] - homes[range];
   const Clock::time_point start = size_ > 1 ? Clock::now() : Clock::time_point{};
   OwnChunks own;
-  for (;;) {
-    const int chunk = homes[worker] + next.fetch_add(1, std::memory_order_relaxed);
-    if (chunk >= homes[worker + 1]) break;
-    body(chunk);
+  for (int chunk; (chunk = ClaimFirst(range, count, false, 0)) >= 0; ++own.count) body(homes[range] + chunk);
+  state_->claims[range].first_done.fetch_add(own.count, std::memory_order_release);
+  if (size_ > 1 && own.count > 0) {
+    own.mean_ns = std::chrono::duration<double, std::nano>(Clock::now() - start).count() / own.count;
+  }
+  return own;
+}
+
+template <typename First, typename Then>
+StepTeam::OwnChunks StepTeam::RunRangeInterleaved(int range, std::span<const int> first_homes, First& first,
+                                                  std::span<const int> then_homes, Then& then,
+                                                  const ThenOrder& then_order) {
+  const int count = first_homes[range + 1] - first_homes[range];
+  const Clock::time_point start = size_ > 1 ? Clock::now() : Clock::time_point{};
+  OwnChunks own;
+  int next = then_homes[range];
+  const int end = then_homes[range + 1];
+  // Only this worker hands out the range's chunks from its start, so those
+  // it ran are the range's first own.count.
+  auto run_ready = [&] {
+    for (; next < end && then_order.needs[next] <= own.count; ++next) then(then_order.order[next]);
+  };
+  run_ready();
+  for (int chunk; (chunk = ClaimFirst(range, count, false, 0)) >= 0;) {
+    first(first_homes[range] + chunk);
     ++own.count;
+    run_ready();
+  }
+  state_->claims[range].first_done.fetch_add(own.count, std::memory_order_release);
+  if (next < end) {
+    // The rest read chunks taken from the range's end, which may still be running.
+    WaitUntil([&] { return FirstDone(range, first_homes); });
+    for (; next < end; ++next) then(then_order.order[next]);
   }
   if (size_ > 1 && own.count > 0) {
     own.mean_ns = std::chrono::duration<double, std::nano>(Clock::now() - start).count() / own.count;
@@ -267,24 +324,14 @@ StepTeam::OwnChunks StepTeam::RunOwn(int worker, int phase, std::span<const int>
   return own;
 }
 
-template <typename Body, typename Ready>
-void StepTeam::TakeOthers(int worker, int phase, std::span<const int> homes, double own_ns, Body& body,
-                          Ready&& ready, bool count_first_done) {
-  for (int k = 1; k < size_; ++k) {
-    const int owner = (worker + k) % size_;
-    if (!ready(owner)) continue;
-    State::Claim& claim = state_->claims[owner];
-    const int range = homes[owner + 1] - homes[owner];
-    for (;;) {
-      const int unclaimed = range - claim.next[phase].load(std::memory_order_relaxed);
-      if (unclaimed <= Reserve(worker, owner, own_ns)) break;
-      const int chunk = homes[owner] + claim.next[phase].fetch_add(1, std::memory_order_relaxed);
-      if (chunk >= homes[owner + 1]) break;
-      const Clock::time_point start = Clock::now();
-      body(chunk);
-      if (count_first_done) claim.first_done.fetch_add(1, std::memory_order_release);
-      RecordTake(worker, std::chrono::duration<double, std::nano>(Clock::now() - start).count(), own_ns);
-    }
+template <typename Body>
+void StepTeam::TakeFirstFromEnd(int worker, int owner, std::span<const int> homes, double own_ns, Body& body) {
+  const int count = homes[owner + 1] - homes[owner];
+  for (int chunk; (chunk = ClaimFirst(owner, count, true, Reserve(worker, owner, own_ns))) >= 0;) {
+    const Clock::time_point start = Clock::now();
+    body(homes[owner] + chunk);
+    state_->claims[owner].first_done.fetch_add(1, std::memory_order_release);
+    RecordTake(worker, std::chrono::duration<double, std::nano>(Clock::now() - start).count(), own_ns);
   }
 }
 

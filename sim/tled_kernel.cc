@@ -240,6 +240,43 @@ void ComputeElementForcesParallel(const TledModel<T>& model, const T* u, T* forc
       tbb::auto_partitioner());
 }
 
+namespace {
+
+// For a model of as many parts as workers: each part's node chunks in the
+// order in which the part's element chunks complete their forces, and how
+// many of those element chunks each reads. Elements are sorted by their
+// first layout node, so a node's forces are complete soon after the
+// elements it comes first in, and a chunk's gather finds most of its
+// forces in the core's nearest caches (docs/solver.md, "Threads").
+template <typename T>
+StepTeam::ThenOrder NodeChunkOrder(const TledModel<T>& model, const ChunkHomes& homes) {
+  constexpr int kForcesPerBlock = 12 * TledModel<T>::kLanes;
+  std::vector<int> chunk_of_block(model.chunk_block_begin(model.element_chunks()));
+  for (int c = 0; c < model.element_chunks(); ++c) {
+    std::fill(chunk_of_block.begin() + model.chunk_block_begin(c),
+              chunk_of_block.begin() + model.chunk_block_begin(c + 1), c);
+  }
+  StepTeam::ThenOrder order{true, {}, {}};
+  std::vector<int> needs(NodeChunks(model), 0);
+  for (size_t part = 0; part + 1 < homes.nodes.size(); ++part) {
+    for (int chunk = homes.nodes[part]; chunk < homes.nodes[part + 1]; ++chunk) {
+      const int end = std::min((chunk + 1) * kNodesPerChunk, model.num_nodes());
+      for (int k = model.gather_begin()[chunk * kNodesPerChunk]; k < model.gather_begin()[end]; ++k) {
+        const int element_chunk = chunk_of_block[model.gather_offsets()[k] / kForcesPerBlock];
+        DG_CHECK(element_chunk >= homes.elements[part] && element_chunk < homes.elements[part + 1]);
+        needs[chunk] = std::max(needs[chunk], element_chunk + 1 - homes.elements[part]);
+      }
+      order.order.push_back(chunk);
+    }
+    std::stable_sort(order.order.begin() + homes.nodes[part], order.order.end(),
+                     [&](int a, int b) { return needs[a] < needs[b]; });
+  }
+  for (int chunk : order.order) order.needs.push_back(needs[chunk]);
+  return order;
+}
+
+}  // namespace
+
 template <typename T>
 ChunkHomes PartitionChunks(const TledModel<T>& model, int parts) {
   constexpr int W = TledModel<T>::kLanes;
@@ -247,7 +284,7 @@ ChunkHomes PartitionChunks(const TledModel<T>& model, int parts) {
     ChunkHomes homes;
     homes.elements.assign(model.part_chunk_begin().begin(), model.part_chunk_begin().end());
     for (int node : model.part_node_begin()) homes.nodes.push_back((node + kNodesPerChunk - 1) / kNodesPerChunk);
-    homes.nodes_wait_for = StepTeam::ThenWaitsFor::kOwnRange;
+    homes.node_order = NodeChunkOrder(model, homes);
     return homes;
   }
   const int element_chunks = model.element_chunks(), node_chunks = NodeChunks(model);
@@ -257,7 +294,7 @@ ChunkHomes PartitionChunks(const TledModel<T>& model, int parts) {
     const int lane = slot % W;
     return std::min({nodes[lane], nodes[W + lane], nodes[2 * W + lane], nodes[3 * W + lane]});
   };
-  ChunkHomes homes{{0}, {0}};
+  ChunkHomes homes{{0}, {0}, {}};
   for (int w = 1; w < parts; ++w) {
     const int middle_slot = static_cast<int>(std::int64_t(model.num_tets()) * w / parts);
     const int node_chunk = std::clamp((first_node(middle_slot) + kNodesPerChunk / 2) / kNodesPerChunk,

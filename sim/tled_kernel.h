@@ -75,15 +75,15 @@ int NodeChunks(const TledModel<T>& model) {
 // (StepTeam::ForEachChunkThen), each parts + 1 bounds, that keep a worker's
 // elements and nodes in the same region of the body. For a model of that
 // many parts they are its parts: a node gathers only forces its own worker
-// wrote. Otherwise, since elements are sorted by their first layout node, the
-// node chunks are split where the elements' count is split evenly, and the
-// element chunks where their first node crosses into the next worker's
-// nodes: a node then gathers mostly forces from its own core's cache.
+// wrote, and each node chunk runs as soon as the part's element chunks it
+// gathers from are done. Otherwise, since elements are sorted by their first
+// layout node, the node chunks are split where the elements' count is split
+// evenly, and the element chunks where their first node crosses into the
+// next worker's nodes: a node then gathers mostly forces from its own core's
+// cache, once every element chunk is done.
 struct ChunkHomes {
   std::vector<int> elements, nodes;
-  // What a worker's node chunks wait for in a step's single pass: its own
-  // element chunks (the model's parts) or all of them.
-  StepTeam::ThenWaitsFor nodes_wait_for = StepTeam::ThenWaitsFor::kAllRanges;
+  StepTeam::ThenOrder node_order;
 };
 template <typename T>
 ChunkHomes PartitionChunks(const TledModel<T>& model, int parts);

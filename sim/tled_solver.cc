@@ -229,7 +229,7 @@ void TledSolver<T>::Advance(int steps, std::span<const double> targets_m) {
         PrefetchCutLines(worker);
         team_->ForEachChunkThen(
             worker, homes_.elements, [&](int c) { ElementChunk(c); }, homes_.nodes,
-            [&](int c) { NodeChunk(c, fraction_end); }, homes_.nodes_wait_for);
+            [&](int c) { NodeChunk(c, fraction_end); }, homes_.node_order);
       },
       [&](int) {
         FinishStep();
@@ -241,7 +241,7 @@ void TledSolver<T>::Advance(int steps, std::span<const double> targets_m) {
 template <typename T>
 void TledSolver<T>::PrefetchCutLines(int worker) const {
   // Only where worker w runs part w (the team's size is the model's parts).
-  if (homes_.nodes_wait_for != StepTeam::ThenWaitsFor::kOwnRange || worker >= model_->parts()) return;
+  if (!homes_.node_order.per_range || worker >= model_->parts()) return;
   // The other cores wrote these displacements at the end of the last step;
   // the part's halo, at the end of its element pass, reads them. Asked for
   // now, they cross while the interior is computed.

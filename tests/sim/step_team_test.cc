@@ -29,7 +29,7 @@ TEST_CASE("step team: each chunk once per pass, the serial section after all of 
         [&](int worker, int) {
           team.ForEachChunkThen(
               worker, homes, [&](int c) { runs[c].fetch_add(1, std::memory_order_relaxed); }, none, [](int) {},
-              StepTeam::ThenWaitsFor::kOwnRange);
+              StepTeam::ThenOrder{true, {}, {}});
         },
         [&](int pass) {
           ++serial_calls;
@@ -42,11 +42,13 @@ TEST_CASE("step team: each chunk once per pass, the serial section after all of 
 }
 
 // ForEachChunkThen: every chunk of both phases runs exactly once per pass,
-// and a `then` chunk starts only after the `first` chunks it waits for, its
-// own range's or all, whoever joins and whoever takes what.
-TEST_CASE("step team: second-phase chunks after the first-phase chunks they wait for", "[sim][unit]") {
+// and a `then` chunk starts only after the `first` chunks it reads are done
+// (all of them, or the first `needs` of its own range), whoever joins and
+// whoever takes what. Per range, a worker alone runs each `then` chunk as
+// soon as those chunks are done, not after its whole range.
+TEST_CASE("step team: second-phase chunks after the first-phase chunks they read", "[sim][unit]") {
   constexpr int kFirst = 41, kThen = 29, kPasses = 400;
-  for (StepTeam::ThenWaitsFor waits : {StepTeam::ThenWaitsFor::kOwnRange, StepTeam::ThenWaitsFor::kAllRanges}) {
+  for (bool per_range : {true, false}) {
     for (int workers : {1, 2, 3}) {
       StepTeam team(workers);
       // Uneven ranges, one of them empty in the second phase.
@@ -56,8 +58,24 @@ TEST_CASE("step team: second-phase chunks after the first-phase chunks they wait
       const std::vector<int> then_homes = workers == 1   ? std::vector<int>{0, kThen}
                                           : workers == 2 ? std::vector<int>{0, 9, kThen}
                                                          : std::vector<int>{0, 12, 12, kThen};
+      // Per range: its `then` chunks in reverse, the k-th of n reading the
+      // first (k + 1) / n of the range's `first` chunks, rounded down.
+      StepTeam::ThenOrder then_order{per_range, {}, {}};
+      std::vector<int> range_of_then(kThen), needs_of_then(kThen);
+      for (int range = 0; range < workers && per_range; ++range) {
+        const int count = then_homes[range + 1] - then_homes[range];
+        for (int k = 0; k < count; ++k) {
+          const int chunk = then_homes[range + 1] - 1 - k;
+          then_order.order.push_back(chunk);
+          then_order.needs.push_back((k + 1) * (first_homes[range + 1] - first_homes[range]) / count);
+          needs_of_then[chunk] = then_order.needs.back();
+        }
+      }
+      for (int range = 0; range < workers; ++range) {
+        for (int c = then_homes[range]; c < then_homes[range + 1]; ++c) range_of_then[c] = range;
+      }
       std::vector<std::atomic<int>> first_runs(kFirst), then_runs(kThen);
-      std::atomic<int> early_starts{0};
+      std::atomic<int> early_starts{0}, late_starts{0};
       bool all_done_each_pass = true;
       team.Run(
           kPasses,
@@ -72,25 +90,31 @@ TEST_CASE("step team: second-phase chunks after the first-phase chunks they wait
                 },
                 then_homes,
                 [&](int c) {
-                  int range = 0;
-                  while (then_homes[range + 1] <= c) ++range;
-                  const bool own = waits == StepTeam::ThenWaitsFor::kOwnRange;
-                  const int begin = own ? first_homes[range] : 0, end = own ? first_homes[range + 1] : kFirst;
+                  const int range = range_of_then[c];
+                  const int begin = per_range ? first_homes[range] : 0;
+                  const int end = per_range ? begin + needs_of_then[c] : kFirst;
                   for (int f = begin; f < end; ++f) {
                     if (first_runs[f].load(std::memory_order_acquire) != pass + 1) early_starts.fetch_add(1);
                   }
+                  if (per_range && end < first_homes[range + 1] &&
+                      first_runs[end].load(std::memory_order_acquire) == pass + 1) {
+                    late_starts.fetch_add(1);
+                  }
                   then_runs[c].fetch_add(1, std::memory_order_relaxed);
                 },
-                waits);
+                then_order);
           },
           [&](int pass) {
             for (const std::atomic<int>& r : first_runs) all_done_each_pass &= r.load() == pass + 1;
             for (const std::atomic<int>& r : then_runs) all_done_each_pass &= r.load() == pass + 1;
             return true;
           });
-      INFO("workers " << workers << ", waiting for " << (waits == StepTeam::ThenWaitsFor::kOwnRange ? "own" : "all"));
+      INFO("workers " << workers << (per_range ? ", per range" : ", after all"));
       REQUIRE(all_done_each_pass);
       REQUIRE(early_starts.load() == 0);
+      // Alone, nobody takes: each `then` chunk runs between the last `first`
+      // chunk it reads and the next one.
+      if (workers == 1) REQUIRE(late_starts.load() == 0);
     }
   }
 }
