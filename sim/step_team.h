@@ -273,7 +273,9 @@ void StepTeam::ForEachChunkThen(int worker, std::span<const int> first_homes, Fi
     const int owner = (worker + k) % size_;
     if (k > 0 && InRun(owner)) continue;
     std::atomic<int>& next = claims[owner].next_then;
-    for (int chunk; (chunk = then_homes[owner] + next.fetch_add(1, std::memory_order_relaxed)) < then_homes[owner + 1];) {
+    for (;;) {
+      const int chunk = then_homes[owner] + next.fetch_add(1, std::memory_order_relaxed);
+      if (chunk >= then_homes[owner + 1]) break;
       then(chunk);
     }
   }
