@@ -10,6 +10,9 @@
 namespace dg::pipeline {
 namespace {
 
+// High enough that the tracked points' one-pixel circles and the labels stay sharp.
+constexpr int kJpegQuality = 90;
+
 // The tracked points on one eye's picture (`eye`, a view into the canvas:
 // drawing clips to it), where that eye sees them.
 void DrawTrackedPoints(const FramePacket& packet, bool right_eye, cv::Mat eye) {
@@ -63,14 +66,8 @@ AnnotatedVideo::AnnotatedVideo(const std::string& path, double fps, cv::Size eye
     : path_(path),
       layout_(layout),
       policy_(policy),
-      writer_(path, cv::CAP_OPENCV_MJPEG, cv::VideoWriter::fourcc('M', 'J', 'P', 'G'), fps,
-              LayoutSize(eye_size, layout)),
-      queue_(queue_frames) {
-  if (!writer_.isOpened()) {
-    throw Error("cannot open the annotated video for writing", path, "check the directory exists and is writable");
-  }
-  writer_.set(cv::VIDEOWRITER_PROP_QUALITY, 90);
-}
+      writer_(path, fps, LayoutSize(eye_size, layout), kJpegQuality),
+      queue_(queue_frames) {}
 
 AnnotatedVideo::~AnnotatedVideo() {
   try {
@@ -91,6 +88,10 @@ void AnnotatedVideo::Add(const FramePacket& packet) {
                 "close it after the graph has finished");
   }
   DG_CHECK(encoder_.joinable());  // Start() first
+  if (failed_.load(std::memory_order_acquire)) {
+    error_thrown_ = true;
+    std::rethrow_exception(error_);
+  }
   ArrangePicture(packet, layout_, &canvas_);
   DrawTracks(packet, layout_, canvas_);
   // Realtime never waits for the encoder; offline waits for room, so every frame is written.
@@ -100,9 +101,17 @@ void AnnotatedVideo::Add(const FramePacket& packet) {
 
 void AnnotatedVideo::Encode() {
   cv::Mat frame;
-  while (queue_.Pop(frame)) {  // false once closed and drained
-    writer_.write(frame);
-    ++written_;
+  try {
+    while (queue_.Pop(frame)) {  // false once closed and drained
+      writer_.Write(frame);
+      ++written_;
+    }
+  } catch (...) {
+    error_ = std::current_exception();
+    failed_.store(true, std::memory_order_release);
+    // Take what is still queued, so that a sink waiting for room goes on to its error.
+    while (queue_.Pop(frame)) {
+    }
   }
 }
 
@@ -111,9 +120,13 @@ void AnnotatedVideo::Close() {
   closed_ = true;
   queue_.Close();
   if (encoder_.joinable()) encoder_.join();
-  writer_.release();
+  writer_.Close();
   if (dropped() > 0) {
     Logger("pipeline").warn("{}: {} frames dropped because the encoder fell behind", path_, dropped());
+  }
+  if (error_ && !error_thrown_) {
+    error_thrown_ = true;
+    std::rethrow_exception(error_);
   }
 }
 

@@ -1,14 +1,15 @@
 #pragma once
 
 #include <atomic>
+#include <exception>
 #include <string>
 #include <thread>
 
 #include <opencv2/core.hpp>
-#include <opencv2/videoio.hpp>
 
-#include "pipeline/frame_packet.h"
 #include "pipeline/bounded_queue.h"
+#include "pipeline/frame_packet.h"
+#include "pipeline/mjpeg_avi_writer.h"
 #include "pipeline/stage_graph.h"
 
 namespace dg::pipeline {
@@ -34,7 +35,9 @@ void ArrangePicture(const FramePacket& packet, VideoLayout layout, cv::Mat* pict
 // encoder never holds the graph in real time: under the realtime policy a
 // frame that finds the queue full is dropped and counted; offline the sink
 // waits on the queue's condition variable, so the video is complete.
-// MJPEG in AVI: every player and OpenCV opens it.
+// MJPEG in AVI (MjpegAviWriter): every player and OpenCV opens it. When the
+// encoder fails (a full disk), the next Add() throws its error, which stops
+// the graph; the frames written before it stay readable.
 //
 // Lifetime: the constructor opens the file; Start() starts the encoder's
 // thread, before the first Add(); Close() drains the
@@ -53,9 +56,10 @@ class AnnotatedVideo {
   // Starts the encoder's thread. @pre neither started nor closed.
   void Start();
   // Draws the packet's frame and hands it to the encoder. @pre Start()ed.
-  // @throws dg::Error after Close().
+  // @throws dg::Error after Close(), or the encoder's error once it failed.
   void Add(const FramePacket& packet);
   // Encodes what is queued and closes the file. Idempotent.
+  // @throws dg::Error: the encoder's, unless Add() threw it already.
   void Close();
 
   std::size_t dropped() const { return dropped_.load(); }
@@ -67,12 +71,15 @@ class AnnotatedVideo {
   std::string path_;
   VideoLayout layout_;
   Policy policy_;
-  cv::VideoWriter writer_;
+  MjpegAviWriter writer_;
   BoundedQueue<cv::Mat> queue_;
   cv::Mat canvas_;  // the producer's frame being drawn; swapped into the queue
   bool closed_ = false;
   std::atomic<std::size_t> dropped_{0};
   std::atomic<std::int64_t> written_{0};
+  std::atomic<bool> failed_{false};
+  std::exception_ptr error_;  // the encoder's, set before failed_
+  bool error_thrown_ = false;  // by Add() or Close(), the caller's thread
   std::thread encoder_;
 };
 

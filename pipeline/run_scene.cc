@@ -189,7 +189,17 @@ RunOutcome RunScene(const RunOptions& options) {
     }
   }
   if (video) {
-    video->Close();
+    try {
+      video->Close();
+    } catch (const Error& e) {
+      // The encoder failed after the sink's last frame (a full disk). A run
+      // that failed already keeps its first error.
+      if (result.complete) {
+        log.Finish(false, e.what());
+        throw;
+      }
+      Logger("pipeline").warn("the annotated video could not be finished: {}", e.what());
+    }
     outcome.video_frames_dropped = static_cast<std::int64_t>(video->dropped());
   }
   outcome.statistics = Summarize(sink.timings(), built.graph->stage_names(), result.frames_dropped,

@@ -20,6 +20,7 @@
 #include <vector>
 
 #include <catch2/catch.hpp>
+#include <opencv2/videoio.hpp>
 
 #include "io/h5_file.h"
 #include "io/h5_table.h"
@@ -107,6 +108,10 @@ bool AnyNamed(const std::string& dir, const std::string& ending) {
 // through and stops the output well before its end.
 constexpr rlim_t kRunLogLimitBytes = 640 * 1024;
 constexpr rlim_t kSimLimitBytes = 400 * 1024;
+// The run log asks for about 130 KiB at its start and 450 KiB at its first
+// flush (frame 29); the tiny phantom's annotated frames are about 8.5 KiB
+// each, so its video passes this limit near frame 18.
+constexpr rlim_t kVideoLimitBytes = 160 * 1024;
 
 io::RunAttributes Attributes() { return {"test", "offline", "test machine", 1, 30.0}; }
 
@@ -289,6 +294,39 @@ TEST_CASE("full disk: dynaguide run stops, keeps the frames flushed and exits cl
   CHECK(last_flushed < 89);
   CHECK(Rows(file, "/timings/frame") == static_cast<hsize_t>(last_flushed) * 8);
   H5Fclose(file);
+}
+
+TEST_CASE("full disk: the annotated video's failure stops the run, the frames before it playable",
+          "[faults][integration]") {
+  // The video is the file that fills first (no mesh series); the encoder's
+  // error reaches the sink with its next frame.
+  const testing::TemporaryFolder scratch("dg_full_disk_video");
+  const std::string& dir = scratch.path();
+  tools::phantom::PhantomSpec spec = tools::phantom::PresetSpec("tiny");
+  spec.duration_s = 3.0;
+  tools::phantom::GeneratePhantom(spec, dir + "/phantom", false);
+  const std::string out = dir + "/out";
+  const Finished finished = RunDynaguide(
+      {"run", dir + "/phantom/scene.yaml", "--out", out, "--threads", "2", "--no-mesh-series", "--quiet"},
+      kVideoLimitBytes,
+      dir + "/stderr.txt");
+  RequireCleanFailure(finished);
+  CHECK_THAT(finished.err, Catch::Contains("cannot write the video") && Catch::Contains(out + "/annotated.avi"));
+
+  const hid_t file = H5Fopen((out + "/run.h5").c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+  REQUIRE(file >= 0);
+  CHECK(IntAttribute(file, "/", "complete") == 0);
+  CHECK_THAT(StringAttribute(file, "/", "error"), Catch::Contains("cannot write the video: File too large"));
+  H5Fclose(file);
+  // The file has no index (the disk had no room for it); FFmpeg reads the
+  // frames in the order written.
+  cv::VideoCapture reader(out + "/annotated.avi", cv::CAP_FFMPEG);
+  REQUIRE(reader.isOpened());
+  int frames = 0;
+  for (cv::Mat frame; reader.read(frame);) ++frames;
+  // 19 of the 160 KiB's frames are whole (the run stopped at frame 21).
+  CHECK(frames >= 12);
+  CHECK(frames < 30);
 }
 
 TEST_CASE("full disk: dynaguide sim stops with its outputs whole and marked incomplete", "[faults][integration]") {

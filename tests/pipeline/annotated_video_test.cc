@@ -3,6 +3,7 @@
 #include "pipeline/annotated_video.h"
 
 #include <catch2/catch.hpp>
+#include <opencv2/videoio.hpp>
 
 #include "tests/support/temporary_folder.h"
 
