@@ -113,6 +113,14 @@ constexpr rlim_t kSimLimitBytes = 400 * 1024;
 // each, so its video passes this limit near frame 18.
 constexpr rlim_t kVideoLimitBytes = 160 * 1024;
 
+// A 3 s tiny phantom (90 frames) generated under `dir`; its scene's path.
+std::string TinyPhantomScene(const std::string& dir) {
+  tools::phantom::PhantomSpec spec = tools::phantom::PresetSpec("tiny");
+  spec.duration_s = 3.0;
+  tools::phantom::GeneratePhantom(spec, dir + "/phantom", false);
+  return dir + "/phantom/scene.yaml";
+}
+
 io::RunAttributes Attributes() { return {"test", "offline", "test machine", 1, 30.0}; }
 
 // This process's stderr into a file for the scope's length.
@@ -265,14 +273,11 @@ TEST_CASE("full disk: a run log keeps the rows flushed before the disk filled", 
 }
 
 TEST_CASE("full disk: dynaguide run stops, keeps the frames flushed and exits cleanly", "[faults][integration]") {
-  // A 3 s tiny phantom: 90 frames, the log flushed every 30 (pipeline/run_log_sink.h).
+  // The log flushed every 30 frames (pipeline/run_log_sink.h).
   const testing::TemporaryFolder scratch("dg_full_disk_run");
   const std::string& dir = scratch.path();
-  tools::phantom::PhantomSpec spec = tools::phantom::PresetSpec("tiny");
-  spec.duration_s = 3.0;
-  tools::phantom::GeneratePhantom(spec, dir + "/phantom", false);
   const std::string out = dir + "/out";
-  const Finished finished = RunDynaguide({"run", dir + "/phantom/scene.yaml", "--out", out, "--threads", "2",
+  const Finished finished = RunDynaguide({"run", TinyPhantomScene(dir), "--out", out, "--threads", "2",
                                           "--no-video", "--quiet"},
                                          kRunLogLimitBytes, dir + "/stderr.txt");
   RequireCleanFailure(finished);
@@ -302,14 +307,10 @@ TEST_CASE("full disk: the annotated video's failure stops the run, the frames be
   // error reaches the sink with its next frame.
   const testing::TemporaryFolder scratch("dg_full_disk_video");
   const std::string& dir = scratch.path();
-  tools::phantom::PhantomSpec spec = tools::phantom::PresetSpec("tiny");
-  spec.duration_s = 3.0;
-  tools::phantom::GeneratePhantom(spec, dir + "/phantom", false);
   const std::string out = dir + "/out";
   const Finished finished = RunDynaguide(
-      {"run", dir + "/phantom/scene.yaml", "--out", out, "--threads", "2", "--no-mesh-series", "--quiet"},
-      kVideoLimitBytes,
-      dir + "/stderr.txt");
+      {"run", TinyPhantomScene(dir), "--out", out, "--threads", "2", "--no-mesh-series", "--quiet"},
+      kVideoLimitBytes, dir + "/stderr.txt");
   RequireCleanFailure(finished);
   CHECK_THAT(finished.err, Catch::Contains("cannot write the video") && Catch::Contains(out + "/annotated.avi"));
 
