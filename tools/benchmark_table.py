@@ -229,15 +229,15 @@ def run_rows(t):
         drops = [r.get("dropped", 0) for r in rs]
         clean = sum(1 for d in drops if d == 0)
         if policy == "offline":
-            t.add(f"Whole graph on the default phantom, offline, {threads} threads, "
-                  f"{n} runs", f"{num(med('realtime_factor'))}x real time median "
+            t.add(f"Whole graph on the default phantom, no annotated video, offline, {threads} threads, "
+                  f"{n} runs in one process", f"{num(med('realtime_factor'))}x real time median "
                   f"({rng('realtime_factor')}); {latency}", "", "run.json", rs)
         else:
             dropped = ("no drop in any run" if clean == n else
                        f"no drop in {clean} of {n} runs, at most {max(drops)} "
                        f"of {rs[0].get('frames')} frames")
-            t.add(f"Whole graph on the default phantom, real time, {threads} threads, "
-                  f"{n} runs", f"{dropped}; {latency}", "no drop", "run.json", rs)
+            t.add(f"Whole graph on the default phantom, no annotated video, real time, {threads} threads, "
+                  f"{n} runs in one process", f"{dropped}; {latency}", "no drop", "run.json", rs)
 
 
 def front_end_rows(t):
