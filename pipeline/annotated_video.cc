@@ -13,11 +13,11 @@ namespace {
 // High enough that the tracked points' one-pixel circles and the labels stay sharp.
 constexpr int kJpegQuality = 90;
 
-// The tracked points on one eye's picture (`eye`, a view into the canvas:
+// The tracked points on one eye's picture (`eye`, a view into the picture:
 // drawing clips to it), where that eye sees them.
-void DrawTrackedPoints(const FramePacket& packet, bool right_eye, cv::Mat eye) {
+void DrawTrackedPoints(const std::vector<stages::TrackedPoint>& points, bool right_eye, cv::Mat eye) {
   const cv::Scalar corner(60, 220, 60), mser(0, 160, 255);  // BGR
-  for (const stages::TrackedPoint& p : packet.tracks.points) {
+  for (const stages::TrackedPoint& p : points) {
     const Eigen::Vector2d& uv = right_eye ? p.uv_right_px : p.uv_left_px;
     // Sub-pixel positions: 2 fractional bits, so a circle sits where the point is.
     cv::circle(eye, cv::Point2d(uv.x(), uv.y()) * 4, 3 * 4, p.kind == stages::FeatureKind::kMser ? mser : corner, 1,
@@ -25,15 +25,15 @@ void DrawTrackedPoints(const FramePacket& packet, bool right_eye, cv::Mat eye) {
   }
 }
 
-void DrawTracks(const FramePacket& packet, VideoLayout layout, cv::Mat& canvas) {
-  const cv::Size eye = packet.raw.left.size();
-  DrawTrackedPoints(packet, false, canvas(cv::Rect({0, 0}, eye)));
-  if (layout == VideoLayout::kSideBySide) DrawTrackedPoints(packet, true, canvas(cv::Rect({eye.width, 0}, eye)));
+void DrawTracks(const AnnotatedVideo::Frame& frame, VideoLayout layout, cv::Mat& picture) {
+  const cv::Size eye(layout == VideoLayout::kSideBySide ? picture.cols / 2 : picture.cols, picture.rows);
+  DrawTrackedPoints(frame.points, false, picture(cv::Rect({0, 0}, eye)));
+  if (layout == VideoLayout::kSideBySide) DrawTrackedPoints(frame.points, true, picture(cv::Rect({eye.width, 0}, eye)));
   char label[128];
-  std::snprintf(label, sizeof label, "frame %lld  t %.3f s  %zu tracks", static_cast<long long>(packet.index),
-                packet.t_s, packet.tracks.points.size());
-  cv::putText(canvas, label, {8, 20}, cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(0, 0, 0), 3, cv::LINE_AA);
-  cv::putText(canvas, label, {8, 20}, cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(255, 255, 255), 1, cv::LINE_AA);
+  std::snprintf(label, sizeof label, "frame %lld  t %.3f s  %zu tracks", static_cast<long long>(frame.index),
+                frame.t_s, frame.points.size());
+  cv::putText(picture, label, {8, 20}, cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(0, 0, 0), 3, cv::LINE_AA);
+  cv::putText(picture, label, {8, 20}, cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(255, 255, 255), 1, cv::LINE_AA);
 }
 
 }  // namespace
@@ -92,18 +92,21 @@ void AnnotatedVideo::Add(const FramePacket& packet) {
     error_thrown_ = true;
     std::rethrow_exception(error_);
   }
-  ArrangePicture(packet, layout_, &canvas_);
-  DrawTracks(packet, layout_, canvas_);
+  ArrangePicture(packet, layout_, &next_.picture);
+  next_.points.assign(packet.tracks.points.begin(), packet.tracks.points.end());
+  next_.index = packet.index;
+  next_.t_s = packet.t_s;
   // Realtime never waits for the encoder; offline waits for room, so every frame is written.
-  const bool queued = policy_ == Policy::kRealtime ? queue_.TryPush(canvas_) : queue_.Push(canvas_);
+  const bool queued = policy_ == Policy::kRealtime ? queue_.TryPush(next_) : queue_.Push(next_);
   if (!queued) ++dropped_;
 }
 
 void AnnotatedVideo::Encode() {
-  cv::Mat frame;
+  Frame frame;
   try {
     while (queue_.Pop(frame)) {  // false once closed and drained
-      writer_.Write(frame);
+      DrawTracks(frame, layout_, frame.picture);
+      writer_.Write(frame.picture);
       ++written_;
     }
   } catch (...) {

@@ -4,6 +4,7 @@
 #include <exception>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include <opencv2/core.hpp>
 
@@ -29,8 +30,9 @@ void ArrangePicture(const FramePacket& packet, VideoLayout layout, cv::Mat* pict
 
 // The video a person watches after a run: the packet's picture in the run's
 // layout, with the tracked features drawn in each eye shown (corners green,
-// MSER regions orange) and the frame's number, time and track count. Drawing
-// happens in the caller (the graph's sink); encoding on a thread of its own
+// MSER regions orange) and the frame's number, time and track count. The
+// caller (the graph's sink) only copies the picture and the tracks; drawing
+// and encoding happen on a thread of its own, off the graph's chain
 // (docs/design.md#threads), fed through a bounded blocking queue, so a slow
 // encoder never holds the graph in real time: under the realtime policy a
 // frame that finds the queue full is dropped and counted; offline the sink
@@ -55,7 +57,7 @@ class AnnotatedVideo {
 
   // Starts the encoder's thread. @pre neither started nor closed.
   void Start();
-  // Draws the packet's frame and hands it to the encoder. @pre Start()ed.
+  // Hands the packet's picture and tracks to the encoder. @pre Start()ed.
   // @throws dg::Error after Close(), or the encoder's error once it failed.
   void Add(const FramePacket& packet);
   // Encodes what is queued and closes the file. Idempotent.
@@ -65,6 +67,15 @@ class AnnotatedVideo {
   std::size_t dropped() const { return dropped_.load(); }
   std::int64_t written() const { return written_.load(); }
 
+  // A frame on its way to the encoder: its picture, and what the encoder's
+  // thread draws on it.
+  struct Frame {
+    cv::Mat picture;
+    std::vector<stages::TrackedPoint> points;
+    std::int64_t index = 0;
+    double t_s = 0;
+  };
+
  private:
   void Encode();
 
@@ -72,8 +83,8 @@ class AnnotatedVideo {
   VideoLayout layout_;
   Policy policy_;
   MjpegAviWriter writer_;
-  BoundedQueue<cv::Mat> queue_;
-  cv::Mat canvas_;  // the producer's frame being drawn; swapped into the queue
+  BoundedQueue<Frame> queue_;
+  Frame next_;  // the producer's, swapped into the queue
   bool closed_ = false;
   std::atomic<std::size_t> dropped_{0};
   std::atomic<std::int64_t> written_{0};
