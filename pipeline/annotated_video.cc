@@ -25,13 +25,17 @@ void DrawTrackedPoints(const std::vector<stages::TrackedPoint>& points, bool rig
   }
 }
 
-void DrawTracks(const AnnotatedVideo::Frame& frame, VideoLayout layout, cv::Mat& picture) {
+// The frame's tracks and label, drawn on its picture.
+void DrawTracks(VideoLayout layout, AnnotatedVideo::Frame* frame) {
+  cv::Mat& picture = frame->picture;
   const cv::Size eye(layout == VideoLayout::kSideBySide ? picture.cols / 2 : picture.cols, picture.rows);
-  DrawTrackedPoints(frame.points, false, picture(cv::Rect({0, 0}, eye)));
-  if (layout == VideoLayout::kSideBySide) DrawTrackedPoints(frame.points, true, picture(cv::Rect({eye.width, 0}, eye)));
+  DrawTrackedPoints(frame->points, false, picture(cv::Rect({0, 0}, eye)));
+  if (layout == VideoLayout::kSideBySide) {
+    DrawTrackedPoints(frame->points, true, picture(cv::Rect({eye.width, 0}, eye)));
+  }
   char label[128];
-  std::snprintf(label, sizeof label, "frame %lld  t %.3f s  %zu tracks", static_cast<long long>(frame.index),
-                frame.t_s, frame.points.size());
+  std::snprintf(label, sizeof label, "frame %lld  t %.3f s  %zu tracks", static_cast<long long>(frame->index),
+                frame->t_s, frame->points.size());
   cv::putText(picture, label, {8, 20}, cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(0, 0, 0), 3, cv::LINE_AA);
   cv::putText(picture, label, {8, 20}, cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(255, 255, 255), 1, cv::LINE_AA);
 }
@@ -105,7 +109,7 @@ void AnnotatedVideo::Encode() {
   Frame frame;
   try {
     while (queue_.Pop(frame)) {  // false once closed and drained
-      DrawTracks(frame, layout_, frame.picture);
+      DrawTracks(layout_, &frame);
       writer_.Write(frame.picture);
       ++written_;
     }
