@@ -138,7 +138,6 @@ void MjpegAviWriter::Write(const cv::Mat& bgr) {
                 "write a shorter range of frames (--frames A:B), or leave the video out (--no-video)");
   }
   index_.push_back({static_cast<std::uint32_t>(position_ - kMoviType), size});
-  largest_frame_ = std::max(largest_frame_, size);
   Bytes chunk;
   chunk.Four("00dc").U32(size);
   WriteBytes(chunk.data().data(), chunk.data().size());
@@ -154,14 +153,16 @@ void MjpegAviWriter::Close() {
   for (const IndexEntry& entry : index_) idx1.Four("00dc").U32(kAviifKeyframe).U32(entry.offset).U32(entry.size);
   WriteBytes(idx1.data().data(), idx1.data().size());
   const auto frames = static_cast<std::uint32_t>(index_.size());
+  std::uint32_t largest_frame = 0;
+  for (const IndexEntry& entry : index_) largest_frame = std::max(largest_frame, entry.size);
   const double seconds = double(frames) * scale_ / rate_;
   const double bytes_per_second = seconds > 0 ? double(movi_end - kHeadersEnd) / seconds : 0;
   WriteU32At(kRiffSize, static_cast<std::uint32_t>(position_ - 8));
   WriteU32At(kAvihMaxBytesPerSecond, static_cast<std::uint32_t>(std::min(bytes_per_second, 4e9)));
   WriteU32At(kAvihTotalFrames, frames);
-  WriteU32At(kAvihSuggestedBuffer, largest_frame_ + 8);
+  WriteU32At(kAvihSuggestedBuffer, largest_frame + 8);
   WriteU32At(kStrhLength, frames);
-  WriteU32At(kStrhSuggestedBuffer, largest_frame_ + 8);
+  WriteU32At(kStrhSuggestedBuffer, largest_frame + 8);
   WriteU32At(kMoviSize, static_cast<std::uint32_t>(movi_end - kMoviType));
   std::FILE* file = file_;
   file_ = nullptr;

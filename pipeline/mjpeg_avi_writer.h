@@ -54,7 +54,6 @@ class MjpegAviWriter {
   std::uint32_t rate_ = 0, scale_ = 1;  // frames per second = rate / scale
   std::vector<IndexEntry> index_;
   std::vector<unsigned char> jpeg_;  // the frame being written, reused
-  std::uint32_t largest_frame_ = 0;
   std::int64_t position_ = 0;  // where the next byte goes
 };
 
