@@ -20,7 +20,7 @@ if(NOT fields MATCHES "Package: dynaguide\n" OR NOT fields MATCHES "Version: ${P
   message(FATAL_ERROR "the package is not dynaguide ${PROJECT_VERSION}:\n${fields}")
 endif()
 # The libraries the command links most visibly, by their Debian package names.
-foreach(dependency libc6 libstdc\\+\\+6 libtbb12 libhdf5-103-1 libopencv-core406 libyaml-cpp0\\.7 libgmsh4\\.8)
+foreach(dependency libc6 libstdc\\+\\+6 libtbb12 libtbbmalloc2 libhdf5-103-1 libopencv-core406 libyaml-cpp0\\.7 libgmsh4\\.8)
   if(NOT fields MATCHES "Depends: ([^\n]*[ ,])?${dependency}[ ,(\n]")
     message(FATAL_ERROR "the package's Depends lacks ${dependency}:\n${fields}")
   endif()

@@ -5,7 +5,10 @@
 # command. Gmsh comes in through its module (io/gmsh_meshing.h) only when a
 # command meshes: `mesh box` loads it, `bench sim` on a mesh file does not,
 # and a module that cannot be found is named with the places searched.
-# Inputs: DYNAGUIDE (the built front program), GMSH_MODULE (the built module), WORK_DIR.
+# dynaguide-full loads TBB's scalable allocator at start (unless built with the
+# sanitizers).
+# Inputs: DYNAGUIDE (the built front program), GMSH_MODULE (the built module),
+# SANITIZE (DG_SANITIZE), WORK_DIR.
 include(${CMAKE_CURRENT_LIST_DIR}/run_checked.cmake)
 
 file(REMOVE_RECURSE ${WORK_DIR})
@@ -64,6 +67,20 @@ if(NOT result EQUAL 0 OR NOT out MATCHES "M tet-steps/s")
 endif()
 if(loaded MATCHES "file=libgmsh" OR loaded MATCHES "dynaguide-gmsh")
   message(FATAL_ERROR "dynaguide bench sim on a mesh file loaded Gmsh, which stepping does not need")
+endif()
+
+# dynaguide-full's graph allocates through TBB's scalable allocator, which must
+# be in place before the first allocation: loaded at start, not through dlopen.
+# A build with the sanitizers keeps their allocator instead.
+execute_process(COMMAND ${CMAKE_COMMAND} -E env LD_DEBUG=files ${DYNAGUIDE} run --help
+  RESULT_VARIABLE result OUTPUT_VARIABLE out ERROR_VARIABLE loaded)
+string(REGEX MATCH "file=[^\n]*libtbbmalloc_proxy[^\n]*" proxy_line "${loaded}")
+if(NOT result EQUAL 0 OR NOT out MATCHES "--policy")
+  message(FATAL_ERROR "dynaguide run --help gave ${result}:\n${out}")
+elseif(SANITIZE AND proxy_line)
+  message(FATAL_ERROR "dynaguide-full built with the sanitizers loaded TBB's allocator: ${proxy_line}")
+elseif(NOT SANITIZE AND NOT proxy_line MATCHES "needed by ")
+  message(FATAL_ERROR "dynaguide-full did not load libtbbmalloc_proxy at start: '${proxy_line}'")
 endif()
 
 execute_process(COMMAND ${CMAKE_COMMAND} -E env DG_GMSH_MODULE=${WORK_DIR}/no-such-module.so
