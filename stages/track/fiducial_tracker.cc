@@ -20,14 +20,15 @@ FiducialTracker::FiducialTracker(const Options& options, std::vector<cv::Point2f
 }
 
 std::vector<FiducialObservation> FiducialTracker::Process(const cv::Mat& left_R, const cv::Mat& right_R) {
-  TemporalTracker::Pyramid pyramid;  // new each frame: the first frame's stays shared with first_
-  temporal_.BuildPyramid(left_R, &pyramid);
-  if (first_.empty()) {
-    first_ = pyramid;
+  if (frames_ == 0) {
+    temporal_.BuildPyramid(left_R, &first_);
   } else {
+    const TemporalTracker::Pyramid& previous = frames_ == 1 ? first_ : recent_[(frames_ - 1) % 2];
+    TemporalTracker::Pyramid& pyramid = recent_[frames_ % 2];
+    temporal_.BuildPyramid(left_R, &pyramid);
     std::vector<cv::Point2f> moved, anchored;
     std::vector<bool> tracked, refined;
-    temporal_.Track(previous_, pyramid, uv_, &moved, &tracked);
+    temporal_.Track(previous, pyramid, uv_, &moved, &tracked);
     temporal_.Track(first_, pyramid, first_uv_, &anchored, &refined, &moved);
     for (size_t i = 0; i < uv_.size(); ++i) {
       alive_[i] = alive_[i] && tracked[i];
@@ -35,7 +36,7 @@ std::vector<FiducialObservation> FiducialTracker::Process(const cv::Mat& left_R,
       uv_[i] = refined[i] ? anchored[i] : moved[i];
     }
   }
-  previous_ = std::move(pyramid);
+  ++frames_;
 
   const std::vector<StereoMatch> matches = stereo_.Match(left_R, right_R, uv_);
   std::vector<FiducialObservation> observations(uv_.size());

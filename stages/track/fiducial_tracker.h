@@ -1,5 +1,6 @@
 #pragma once
 
+#include <array>
 #include <string>
 #include <vector>
 
@@ -45,7 +46,11 @@ class FiducialTracker {
   StereoMatcher stereo_;
   std::vector<cv::Point2f> first_uv_, uv_;
   std::vector<bool> alive_;
-  TemporalTracker::Pyramid first_, previous_;
+  // The first frame's pyramid, kept, and the last two frames', rebuilt in
+  // place by turns, so that a frame allocates no pyramid.
+  TemporalTracker::Pyramid first_;
+  std::array<TemporalTracker::Pyramid, 2> recent_;
+  long long frames_ = 0;  // processed so far
 };
 
 }  // namespace dg::stages

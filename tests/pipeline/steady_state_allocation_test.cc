@@ -11,7 +11,6 @@
 #include <new>
 
 #include <catch2/catch.hpp>
-#include <opencv2/core.hpp>
 #include <tbb/global_control.h>
 #include <yaml-cpp/yaml.h>
 
@@ -19,6 +18,7 @@
 #include "io/registration_file.h"
 #include "io/scene.h"
 #include "pipeline/scene_graph.h"
+#include "tests/support/counting_mat_allocator.h"
 #include "tests/support/temporary_folder.h"
 #include "tools/phantom/phantom_generator.h"
 #include "tools/phantom/phantom_spec.h"
@@ -55,32 +55,7 @@ namespace dg::pipeline {
 namespace {
 
 namespace fs = std::filesystem;
-
-// OpenCV's own allocator, counting the image buffers it hands out.
-class CountingMatAllocator final : public cv::MatAllocator {
- public:
-  cv::UMatData* allocate(int dims, const int* sizes, int type, void* data, size_t* step, cv::AccessFlag flags,
-                         cv::UMatUsageFlags usage) const override {
-    if (!data) {  // a header over existing memory costs nothing
-      long long pixels = 1;
-      for (int d = 0; d < dims; ++d) pixels *= sizes[d];
-      (pixels >= frame_pixels ? frame_images : scratch_images).fetch_add(1, std::memory_order_relaxed);
-    }
-    return base_->allocate(dims, sizes, type, data, step, flags, usage);
-  }
-  bool allocate(cv::UMatData* data, cv::AccessFlag flags, cv::UMatUsageFlags usage) const override {
-    return base_->allocate(data, flags, usage);
-  }
-  void deallocate(cv::UMatData* data) const override { base_->deallocate(data); }
-
-  // An image of at least a frame's pixels is a frame buffer (an eye, a
-  // pyramid's base, a layer, a composite); smaller ones are kernels' scratch.
-  long long frame_pixels = 0;
-  mutable std::atomic<long long> frame_images{0}, scratch_images{0};
-
- private:
-  cv::MatAllocator* base_ = cv::Mat::getStdAllocator();
-};
+using testing::CountingMatAllocator;
 
 // The counters as each frame reaches the sink, in frame order.
 class CountingSink final : public GraphSink {

@@ -13,6 +13,7 @@
 #include "stages/track/fiducial_tracker.h"
 #include "stages/track/marker_finder.h"
 #include "tests/stages/track/rectified_phantom.h"
+#include "tests/support/counting_mat_allocator.h"
 #include "tests/support/temporary_folder.h"
 
 namespace dg::stages {
@@ -215,9 +216,15 @@ void CheckFiducials(const TrackingRun& run) {
   const std::vector<cv::Point2f> start = FoundFiducials(run, geometry, &fiducial);
   FiducialTracker::Options options;
   options.stereo = PhantomStereoOptions(geometry);
+  // Before the tracker: the images it keeps are freed through it.
+  dg::testing::CountingMatAllocator mats;
+  mats.frame_pixels = static_cast<long long>(run.scene.left_R[0].total());
   FiducialTracker tracker(options, start);
   std::vector<double> left_px, right_px;
+  cv::Mat::setDefaultAllocator(&mats);
+  long long frame_images_before_fourth = 0;
   for (size_t f = 0; f < run.scene.left_R.size(); ++f) {
+    if (f == 3) frame_images_before_fourth = mats.frame_images.load();
     const std::vector<FiducialObservation> seen = tracker.Process(run.scene.left_R[f], run.scene.right_R[f]);
     for (size_t k = 0; k < seen.size(); ++k) {
       if (!seen[k].valid) continue;
@@ -230,6 +237,11 @@ void CheckFiducials(const TrackingRun& run) {
         right_px.push_back((geometry.RightToDistorted(r) - fiducials.uv_right_px[f][i]).norm());
     }
   }
+  cv::Mat::setDefaultAllocator(nullptr);
+  // The first three frames build the first frame's pyramid and the two
+  // recent ones; later frames rebuild the recent ones in place, allocating
+  // no frame-sized image (a pyramid's base).
+  CHECK(mats.frame_images.load() - frame_images_before_fourth == 0);
   REQUIRE((!left_px.empty() && !right_px.empty()));
   const double left = sim::Median(left_px), right = sim::Median(right_px);
   WARN("fiducial observations " << left_px.size() << " left, " << right_px.size() << " right; median error " << left
