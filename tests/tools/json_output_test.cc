@@ -55,6 +55,8 @@ TEST_CASE("bench JSON: NaN and infinite figures are null, names stay, provenance
   CHECK(r["date"].get<std::string>().size() == 20);  // 2026-12-03T07:00:00Z
   CHECK(r["load_average_before"].size() == 3);
   CHECK(r["load_average_after"].size() == 3);
+  CHECK(r["host_fma_fp32_gflops"].size() == r["host_triad_gb_s"].size());
+  CHECK(r["host_fma_fp32_gflops"][0].get<double>() > 0);
   CHECK(records[1]["overlay"] == "bad \xEF\xBF\xBD byte \"quoted\"");  // the byte replaced by U+FFFD
 
   // Python's reader, as tools/benchmark_table.py reads the records: null is None.

@@ -7,6 +7,7 @@
 
 #include "pipeline/machine_info.h"
 #include "sim/error.h"
+#include "tools/bench/machine_peaks.h"
 #include "tools/json_text.h"
 #include "tools/provenance.h"
 
@@ -24,6 +25,14 @@ void WriteBenchJson(const std::string& path, const std::vector<std::string>& rec
   if (!out) throw Error("cannot write benchmark results", path, "check the directory exists and is writable");
   const pipeline::MachineInfo machine = pipeline::ReadMachineInfo();
   const RunProvenance run = ReadRunProvenance();
+  MachinePeaks peaks = MeasureMachinePeaks();
+  for (double& gflops : peaks.fma_fp32_gflops) gflops = Significant(gflops, 4);
+  for (double& gb_s : peaks.triad_gb_s) gb_s = Significant(gb_s, 3);
+  std::printf("host peaks now: FMA fp32");
+  for (const double gflops : peaks.fma_fp32_gflops) std::printf(" %.1f", gflops);
+  std::printf(" GFLOP/s, triad");
+  for (const double gb_s : peaks.triad_gb_s) std::printf(" %.1f", gb_s);
+  std::printf(" GB/s on 1..%zu threads\n", peaks.triad_gb_s.size());
   Json array = Json::array();
   for (const std::string& text : records) {
     Json record = Json::parse(text);
@@ -35,6 +44,8 @@ void WriteBenchJson(const std::string& path, const std::vector<std::string>& rec
     record["date"] = run.date;
     record["load_average_before"] = LoadAverageJson<Json>(run.load_at_start);
     record["load_average_after"] = LoadAverageJson<Json>(run.load_now);
+    record["host_fma_fp32_gflops"] = peaks.fma_fp32_gflops;
+    record["host_triad_gb_s"] = peaks.triad_gb_s;
     array.push_back(std::move(record));
   }
   out << JsonText(array);

@@ -35,8 +35,10 @@ void PrintAndSave(const std::string& table, const std::string& json_path, const 
 // tools/json_text.h, its keys in order) followed by the
 // machine's (cpu, logical_cores, simd, compiler) and the run's provenance
 // (commit, date, load_average_before at the process's start and
-// load_average_after now, 1/5/15 minutes). A figure that is not a finite
-// number is written as null (docs/benchmarks.md).
+// load_average_after now, 1/5/15 minutes), then the host's peaks measured
+// now (MeasureMachinePeaks, about a second: host_fma_fp32_gflops and
+// host_triad_gb_s on 1, 2 threads). A figure that is not a finite number is
+// written as null (docs/benchmarks.md).
 // @throws dg::Error when the file cannot be written.
 void WriteBenchJson(const std::string& path, const std::vector<std::string>& records);
 

@@ -1,0 +1,151 @@
+#include "tools/bench/machine_peaks.h"
+
+#include <immintrin.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <memory>
+#include <thread>
+
+#include "sim/error.h"
+
+namespace dg::tools {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+// One kernel per instruction set, each compiled for its own target so that
+// the probe measures the CPU's widest FMA whatever the build's -march. A
+// macro, not a template: an intrinsic can only be called from a function
+// compiled for its target, and a target cannot be a template argument.
+#define DG_FMA_CHAINS(name, isa, Vector, set1, fmadd, storeu, lanes)                          \
+  __attribute__((target(isa))) void name(float a, float b, long iterations, float* out) {    \
+    const Vector va = set1(a), vb = set1(b);                                                 \
+    Vector x[kFmaChains];                                                                    \
+    for (int c = 0; c < kFmaChains; ++c) x[c] = set1(static_cast<float>(c));                 \
+    for (long i = 0; i < iterations; ++i) {                                                  \
+      _Pragma("GCC unroll 12") for (int c = 0; c < kFmaChains; ++c) x[c] = fmadd(x[c], va, vb); \
+    }                                                                                        \
+    for (int c = 0; c < kFmaChains; ++c) storeu(out + (lanes) * c, x[c]);                    \
+  }
+DG_FMA_CHAINS(FmaAvx512, "avx512f", __m512, _mm512_set1_ps, _mm512_fmadd_ps, _mm512_storeu_ps, 16)
+DG_FMA_CHAINS(FmaAvx2, "avx2,fma", __m256, _mm256_set1_ps, _mm256_fmadd_ps, _mm256_storeu_ps, 8)
+#undef DG_FMA_CHAINS
+
+void FmaScalar(float a, float b, long iterations, float* out) {
+  float x[kFmaChains];
+  for (int c = 0; c < kFmaChains; ++c) x[c] = static_cast<float>(c);
+  for (long i = 0; i < iterations; ++i) {
+    for (int c = 0; c < kFmaChains; ++c) x[c] = std::fma(x[c], a, b);
+  }
+  std::copy(x, x + kFmaChains, out);
+}
+
+// Runs work(thread) on `threads` threads released together; the wall time
+// from the release until the last finishes, in seconds.
+template <typename Work>
+double TimeTogether(int threads, const Work& work) {
+  std::atomic<int> ready{0};
+  std::atomic<bool> go{false};
+  Clock::time_point start;
+  std::vector<std::thread> team;
+  for (int t = 0; t < threads; ++t) {
+    team.emplace_back([&, t] {
+      ready.fetch_add(1);
+      while (!go.load(std::memory_order_acquire)) {
+      }
+      work(t);
+    });
+  }
+  while (ready.load() < threads) {
+  }
+  start = Clock::now();
+  go.store(true, std::memory_order_release);
+  for (std::thread& thread : team) thread.join();
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+// The best of `repeats` timings: the others met an interruption.
+template <typename Measure>
+double Best(int repeats, const Measure& measure) {
+  double best = 0;
+  for (int r = 0; r < repeats; ++r) best = std::max(best, measure());
+  return best;
+}
+
+double FmaGflops(int threads) {
+  constexpr long kIterations = 20'000'000;  // about 0.1 s a thread at 100 GFLOP/s
+  const int lanes = FmaLanes();
+  std::vector<std::vector<float>> out(threads, std::vector<float>(lanes * kFmaChains));
+  return Best(2, [&] {
+    // b of 2^-30 keeps the values small and normal for any iteration count.
+    const double seconds =
+        TimeTogether(threads, [&](int t) { RunFmaChains(lanes, 1.0f, 0x1p-30f, kIterations, out[t].data()); });
+    return 2.0 * lanes * kFmaChains * kIterations * threads / seconds * 1e-9;
+  });
+}
+
+double TriadGbPerS(int threads) {
+  constexpr long kElements = 4L << 20;  // 32 MiB an array, three of them: beyond any cache here
+  const std::unique_ptr<double[]> a(new double[kElements]), b(new double[kElements]), c(new double[kElements]);
+  const auto part = [&](int t, long* begin, long* end) {
+    *begin = kElements * t / threads;
+    *end = kElements * (t + 1) / threads;
+  };
+  // Each thread first touches its own part, as it will then stream it.
+  TimeTogether(threads, [&](int t) {
+    long begin, end;
+    part(t, &begin, &end);
+    std::fill(a.get() + begin, a.get() + end, 0.0);
+    std::fill(b.get() + begin, b.get() + end, 1.0);
+    std::fill(c.get() + begin, c.get() + end, 2.0);
+  });
+  return Best(3, [&] {
+    const double seconds = TimeTogether(threads, [&](int t) {
+      long begin, end;
+      part(t, &begin, &end);
+      Triad(a.get(), b.get(), c.get(), 3.0, begin, end);
+    });
+    return 24.0 * kElements / seconds * 1e-9;
+  });
+}
+
+}  // namespace
+
+int FmaLanes() {
+  if (__builtin_cpu_supports("avx512f")) return 16;
+  if (__builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma")) return 8;
+  return 1;
+}
+
+void RunFmaChains(int lanes, float a, float b, long iterations, float* out) {
+  DG_CHECK(lanes == 1 || ((lanes == 8 || lanes == 16) && lanes <= FmaLanes()));
+  switch (lanes) {
+    case 16:
+      FmaAvx512(a, b, iterations, out);
+      return;
+    case 8:
+      FmaAvx2(a, b, iterations, out);
+      return;
+    default:
+      FmaScalar(a, b, iterations, out);
+  }
+}
+
+void Triad(double* a, const double* b, const double* c, double s, long begin, long end) {
+  for (long i = begin; i < end; ++i) a[i] = b[i] + s * c[i];
+}
+
+MachinePeaks MeasureMachinePeaks(int max_threads) {
+  const int cores = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  MachinePeaks peaks;
+  for (int threads = 1; threads <= std::min(max_threads, cores); ++threads) {
+    peaks.fma_fp32_gflops.push_back(FmaGflops(threads));
+    peaks.triad_gb_s.push_back(TriadGbPerS(threads));
+  }
+  return peaks;
+}
+
+}  // namespace dg::tools
