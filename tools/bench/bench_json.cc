@@ -21,10 +21,8 @@ void PrintMachine() {
 
 void WriteBenchJson(const std::string& path, const std::vector<std::string>& records) {
   using Json = nlohmann::ordered_json;
-  std::ofstream out(path);
-  if (!out) throw Error("cannot write benchmark results", path, "check the directory exists and is writable");
   const pipeline::MachineInfo machine = pipeline::ReadMachineInfo();
-  const RunProvenance run = ReadRunProvenance();
+  const RunProvenance run = ReadRunProvenance();  // the load before the probe's own
   MachinePeaks peaks = MeasureMachinePeaks();
   for (double& gflops : peaks.fma_fp32_gflops) gflops = Significant(gflops, 4);
   for (double& gb_s : peaks.triad_gb_s) gb_s = Significant(gb_s, 3);
@@ -33,6 +31,9 @@ void WriteBenchJson(const std::string& path, const std::vector<std::string>& rec
   std::printf(" GFLOP/s, triad");
   for (const double gb_s : peaks.triad_gb_s) std::printf(" %.1f", gb_s);
   std::printf(" GB/s on 1..%zu threads\n", peaks.triad_gb_s.size());
+  // Opened after the probe's second, so that an interruption leaves the old file whole.
+  std::ofstream out(path);
+  if (!out) throw Error("cannot write benchmark results", path, "check the directory exists and is writable");
   Json array = Json::array();
   for (const std::string& text : records) {
     Json record = Json::parse(text);

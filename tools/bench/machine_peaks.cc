@@ -49,19 +49,18 @@ template <typename Work>
 double TimeTogether(int threads, const Work& work) {
   std::atomic<int> ready{0};
   std::atomic<bool> go{false};
-  Clock::time_point start;
   std::vector<std::thread> team;
   for (int t = 0; t < threads; ++t) {
     team.emplace_back([&, t] {
       ready.fetch_add(1);
-      while (!go.load(std::memory_order_acquire)) {
-      }
+      while (!go.load(std::memory_order_acquire)) std::this_thread::yield();
       work(t);
     });
   }
-  while (ready.load() < threads) {
-  }
-  start = Clock::now();
+  // Yielding while the others start: on a machine of as many cores as
+  // threads, the spinning caller would otherwise hold a core they need.
+  while (ready.load() < threads) std::this_thread::yield();
+  const Clock::time_point start = Clock::now();
   go.store(true, std::memory_order_release);
   for (std::thread& thread : team) thread.join();
   return std::chrono::duration<double>(Clock::now() - start).count();
