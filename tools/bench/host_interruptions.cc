@@ -1,8 +1,8 @@
 #include "tools/bench/host_interruptions.h"
 
 #include <algorithm>
-#include <atomic>
-#include <thread>
+
+#include "tools/bench/run_together.h"
 
 namespace dg::tools {
 
@@ -25,13 +25,8 @@ HostInterruptions MeasureHostInterruptions(int threads, std::chrono::millisecond
   using Clock = std::chrono::steady_clock;
   // Per thread, its gaps in seconds from the common start.
   std::vector<std::vector<std::pair<double, double>>> gaps(threads);
-  std::atomic<int> ready{0};
-  Clock::time_point start;
-  std::atomic<bool> go{false};
-  auto probe = [&](std::vector<std::pair<double, double>>& mine) {
-    ready.fetch_add(1);
-    while (!go.load(std::memory_order_acquire)) {
-    }
+  RunTogether(threads, [&](int t, Clock::time_point start) {
+    std::vector<std::pair<double, double>>& mine = gaps[t];
     const Clock::time_point end = start + duration;
     Clock::time_point last = Clock::now();
     while (last < end) {
@@ -42,14 +37,7 @@ HostInterruptions MeasureHostInterruptions(int threads, std::chrono::millisecond
       }
       last = now;
     }
-  };
-  std::vector<std::thread> running;
-  for (int t = 1; t < threads; ++t) running.emplace_back(probe, std::ref(gaps[t]));
-  while (ready.load() < threads - 1) std::this_thread::yield();
-  start = Clock::now();
-  go.store(true, std::memory_order_release);
-  probe(gaps[0]);
-  for (std::thread& thread : running) thread.join();
+  });
 
   HostInterruptions result;
   std::vector<std::pair<double, double>> all;

@@ -3,13 +3,13 @@
 #include <immintrin.h>
 
 #include <algorithm>
-#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <memory>
 #include <thread>
 
 #include "sim/error.h"
+#include "tools/bench/run_together.h"
 
 namespace dg::tools {
 namespace {
@@ -43,26 +43,11 @@ void FmaScalar(float a, float b, long iterations, float* out) {
   std::copy(x, x + kFmaChains, out);
 }
 
-// Runs work(thread) on `threads` threads released together; the wall time
-// from the release until the last finishes, in seconds.
+// The wall time of work(thread) on `threads` threads released together,
+// until the last finishes, in seconds.
 template <typename Work>
 double TimeTogether(int threads, const Work& work) {
-  std::atomic<int> ready{0};
-  std::atomic<bool> go{false};
-  std::vector<std::thread> team;
-  for (int t = 0; t < threads; ++t) {
-    team.emplace_back([&, t] {
-      ready.fetch_add(1);
-      while (!go.load(std::memory_order_acquire)) std::this_thread::yield();
-      work(t);
-    });
-  }
-  // Yielding while the others start: on a machine of as many cores as
-  // threads, the spinning caller would otherwise hold a core they need.
-  while (ready.load() < threads) std::this_thread::yield();
-  const Clock::time_point start = Clock::now();
-  go.store(true, std::memory_order_release);
-  for (std::thread& thread : team) thread.join();
+  const Clock::time_point start = RunTogether(threads, [&](int t, Clock::time_point) { work(t); });
   return std::chrono::duration<double>(Clock::now() - start).count();
 }
 
@@ -86,28 +71,25 @@ double FmaGflops(int threads) {
   });
 }
 
-double TriadGbPerS(int threads) {
-  constexpr long kElements = 4L << 20;  // 32 MiB an array, three of them: beyond any cache here
-  const std::unique_ptr<double[]> a(new double[kElements]), b(new double[kElements]), c(new double[kElements]);
-  const auto part = [&](int t, long* begin, long* end) {
-    *begin = kElements * t / threads;
-    *end = kElements * (t + 1) / threads;
-  };
-  // Each thread first touches its own part, as it will then stream it.
-  TimeTogether(threads, [&](int t) {
-    long begin, end;
-    part(t, &begin, &end);
-    std::fill(a.get() + begin, a.get() + end, 0.0);
-    std::fill(b.get() + begin, b.get() + end, 1.0);
-    std::fill(c.get() + begin, c.get() + end, 2.0);
-  });
+// Three arrays far larger than the caches, kept for every thread count:
+// allocating and touching them again for each would cost 24,000 page faults.
+struct TriadArrays {
+  static constexpr long kElements = 4L << 20;  // 32 MiB an array
+  std::unique_ptr<double[]> a{new double[kElements]}, b{new double[kElements]}, c{new double[kElements]};
+  TriadArrays() {
+    std::fill(a.get(), a.get() + kElements, 0.0);
+    std::fill(b.get(), b.get() + kElements, 1.0);
+    std::fill(c.get(), c.get() + kElements, 2.0);
+  }
+};
+
+double TriadGbPerS(int threads, TriadArrays& arrays) {
+  constexpr long n = TriadArrays::kElements;
   return Best(3, [&] {
     const double seconds = TimeTogether(threads, [&](int t) {
-      long begin, end;
-      part(t, &begin, &end);
-      Triad(a.get(), b.get(), c.get(), 3.0, begin, end);
+      Triad(arrays.a.get(), arrays.b.get(), arrays.c.get(), 3.0, n * t / threads, n * (t + 1) / threads);
     });
-    return 24.0 * kElements / seconds * 1e-9;
+    return 24.0 * n / seconds * 1e-9;
   });
 }
 
@@ -140,9 +122,10 @@ void Triad(double* a, const double* b, const double* c, double s, long begin, lo
 MachinePeaks MeasureMachinePeaks(int max_threads) {
   const int cores = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   MachinePeaks peaks;
+  TriadArrays arrays;
   for (int threads = 1; threads <= std::min(max_threads, cores); ++threads) {
     peaks.fma_fp32_gflops.push_back(FmaGflops(threads));
-    peaks.triad_gb_s.push_back(TriadGbPerS(threads));
+    peaks.triad_gb_s.push_back(TriadGbPerS(threads, arrays));
   }
   return peaks;
 }
