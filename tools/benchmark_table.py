@@ -146,6 +146,15 @@ def nothing_shared(r):
     return f"; nothing shared: {mega(rate)} M" if rate else ""
 
 
+def core_speeds(r):
+    """ '; each core alone at L1 loads and stores: A / B GB/s', sampled between the
+    same rounds, when recorded: a slower core slows its worker and the ratio."""
+    speeds = r.get("core_load_store_gb_s")
+    if not speeds:
+        return ""
+    return f"; each core alone at L1 loads and stores: {' / '.join(num(gb_s) for gb_s in speeds)} GB/s"
+
+
 def step_split(r):
     """ '; a step: work A / B us, at the barrier C us (D in waits of 10 us or more);
     the host took E% of each core', where the two-thread record holds them."""
@@ -171,7 +180,7 @@ def solver_rows(t):
     if r and "speedup_over_1_thread" in r:
         t.add("TLED forward, 20k-tet box, float, 2 threads / 1",
               f"{num(r['speedup_over_1_thread'])}x (barrier {num(r['barrier_ns'])} ns"
-              f"{nothing_shared(r)})", "", "sim_forward.json", [r])
+              f"{nothing_shared(r)}{core_speeds(r)})", "", "sim_forward.json", [r])
 
     for label, mesh in (("file order", None), ("nodes shuffled", "shuffled")):
         rs = [pick_mesh_file(threads, mesh) for threads in (1, 2)]
@@ -179,7 +188,8 @@ def solver_rows(t):
             t.add(f"TLED forward, 20k-tet mesh file, {label}, 1 / 2 threads",
                   f"{mega(rs[0]['tet_steps_per_s'])} / {mega(rs[1]['tet_steps_per_s'])} "
                   f"M tet-steps/s (2 / 1: {num(rs[1]['speedup_over_1_thread'])}x, "
-                  f"barrier {num(rs[1]['barrier_ns'])} ns{nothing_shared(rs[1])}{step_split(rs[1])})", "",
+                  f"barrier {num(rs[1]['barrier_ns'])} ns{nothing_shared(rs[1])}{step_split(rs[1])}"
+                  f"{core_speeds(rs[1])})", "",
                   "sim_mesh_file.json", rs)
     r = pick("sim_memory.json", threads=2, mode="forward", precision="float")
     if r and r.get("resident_mb"):

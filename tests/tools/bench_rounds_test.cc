@@ -2,7 +2,9 @@
 // once a round, so that each samples the same minutes of a drifting host; and
 // what its records then hold. No time is asserted, only the schedule and how
 // the repeats are summarised.
+#include <algorithm>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include <catch2/catch.hpp>
@@ -78,6 +80,10 @@ TEST_CASE("bench sim: every thread count's record from the same rounds, with its
   CHECK(two.long_waits_us_per_step <= two.barrier_us_per_step);
   CHECK(two.host.any_core_percent >= two.host.per_core_percent);
   CHECK(one.mesh_tets == two.mesh_tets);
+  // Each core's load/store speed, sampled between the same rounds: one figure a core, in both records.
+  REQUIRE(one.core_load_store_gb_s.size() == std::max(1u, std::thread::hardware_concurrency()));
+  CHECK(two.core_load_store_gb_s == one.core_load_store_gb_s);
+  for (double gb_s : one.core_load_store_gb_s) CHECK(gb_s > 0);
 }
 
 // The share of a span the union of gap intervals covers: overlapping,

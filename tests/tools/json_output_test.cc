@@ -2,10 +2,12 @@
 // names: a NaN or infinite figure is written as null (docs/benchmarks.md), a
 // name that is not UTF-8 is still written, and the records carry the build's
 // commit and the date.
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
 #include <limits>
+#include <thread>
 
 #include <catch2/catch.hpp>
 #include <nlohmann/json.hpp>
@@ -57,6 +59,7 @@ TEST_CASE("bench JSON: NaN and infinite figures are null, names stay, provenance
   CHECK(r["load_average_after"].size() == 3);
   CHECK(r["host_fma_fp32_gflops"].size() == r["host_triad_gb_s"].size());
   CHECK(r["host_fma_fp32_gflops"][0].get<double>() > 0);
+  CHECK(r["host_core_load_store_gb_s"].size() == std::max(1u, std::thread::hardware_concurrency()));
   CHECK(records[1]["overlay"] == "bad \xEF\xBF\xBD byte \"quoted\"");  // the byte replaced by U+FFFD
 
   // Python's reader, as tools/benchmark_table.py reads the records: null is None.

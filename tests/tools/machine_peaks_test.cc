@@ -2,6 +2,9 @@
 // checked against closed forms, so the operations it counts are the ones
 // it did. The peaks themselves vary with the host; only their presence and
 // sign are asserted (a weak check, said plainly: no time is asserted).
+#include <sched.h>
+
+#include <algorithm>
 #include <cmath>
 #include <thread>
 #include <vector>
@@ -43,6 +46,14 @@ TEST_CASE("machine peaks: the triad writes a = b + s c on its range only", "[too
   for (int i = 0; i < 10; ++i) CHECK(a[i] == (i >= 2 && i < 7 ? 3.0 * i : -1.0));
 }
 
+TEST_CASE("machine peaks: the load/store kernel adds to every element once a pass", "[tools][unit]") {
+  std::vector<float> a(37);
+  for (int i = 0; i < 37; ++i) a[i] = static_cast<float>(i);
+  AddInPlace(a.data(), 36, 0.25f, 8);  // the last element is outside the range
+  for (int i = 0; i < 36; ++i) CHECK(a[i] == static_cast<float>(i) + 2.0f);
+  CHECK(a[36] == 36.0f);
+}
+
 TEST_CASE("machine peaks: one figure a thread count, up to the cores", "[tools][unit]") {
   const MachinePeaks peaks = MeasureMachinePeaks(2);
   const size_t expected = std::thread::hardware_concurrency() >= 2 ? 2 : 1;
@@ -54,6 +65,16 @@ TEST_CASE("machine peaks: one figure a thread count, up to the cores", "[tools][
     CHECK(std::isfinite(peaks.triad_gb_s[t]));
     CHECK(peaks.triad_gb_s[t] > 0);
   }
+  // One figure a logical core, each measured on that core.
+  REQUIRE(peaks.core_load_store_gb_s.size() == std::max(1u, std::thread::hardware_concurrency()));
+  for (const double gb_s : peaks.core_load_store_gb_s) {
+    CHECK(std::isfinite(gb_s));
+    CHECK(gb_s > 0);
+  }
+}
+
+TEST_CASE("machine peaks: a core the process may not run on has no load/store figure", "[tools][unit]") {
+  CHECK(std::isnan(CoreLoadStoreGbPerS(CPU_SETSIZE - 1, std::chrono::milliseconds(1))));
 }
 
 }  // namespace

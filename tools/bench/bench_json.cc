@@ -26,11 +26,14 @@ void WriteBenchJson(const std::string& path, const std::vector<std::string>& rec
   MachinePeaks peaks = MeasureMachinePeaks();
   for (double& gflops : peaks.fma_fp32_gflops) gflops = Significant(gflops, 4);
   for (double& gb_s : peaks.triad_gb_s) gb_s = Significant(gb_s, 3);
+  for (double& gb_s : peaks.core_load_store_gb_s) gb_s = Significant(gb_s, 3);
   std::printf("host peaks now: FMA fp32");
   for (const double gflops : peaks.fma_fp32_gflops) std::printf(" %.1f", gflops);
   std::printf(" GFLOP/s, triad");
   for (const double gb_s : peaks.triad_gb_s) std::printf(" %.1f", gb_s);
-  std::printf(" GB/s on 1..%zu threads\n", peaks.triad_gb_s.size());
+  std::printf(" GB/s on 1..%zu threads; L1 load/store", peaks.triad_gb_s.size());
+  for (const double gb_s : peaks.core_load_store_gb_s) std::printf(" %.0f", gb_s);
+  std::printf(" GB/s on each core alone\n");
   // Opened after the probe's second, so that an interruption leaves the old file whole.
   std::ofstream out(path);
   if (!out) throw Error("cannot write benchmark results", path, "check the directory exists and is writable");
@@ -47,6 +50,7 @@ void WriteBenchJson(const std::string& path, const std::vector<std::string>& rec
     record["load_average_after"] = LoadAverageJson<Json>(run.load_now);
     record["host_fma_fp32_gflops"] = peaks.fma_fp32_gflops;
     record["host_triad_gb_s"] = peaks.triad_gb_s;
+    record["host_core_load_store_gb_s"] = peaks.core_load_store_gb_s;
     array.push_back(std::move(record));
   }
   out << JsonText(array);

@@ -37,7 +37,8 @@ void PrintAndSave(const std::string& table, const std::string& json_path, const 
 // (commit, date, load_average_before at the process's start and
 // load_average_after now, 1/5/15 minutes), then the host's peaks measured
 // now (MeasureMachinePeaks, about a second: host_fma_fp32_gflops and
-// host_triad_gb_s on 1, 2 threads). A figure that is not a finite number is
+// host_triad_gb_s on 1, 2 threads, host_core_load_store_gb_s on each logical
+// core alone). A figure that is not a finite number is
 // written as null (docs/benchmarks.md).
 // @throws dg::Error when the file cannot be written.
 void WriteBenchJson(const std::string& path, const std::vector<std::string>& records);

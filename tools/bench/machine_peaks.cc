@@ -1,10 +1,13 @@
 #include "tools/bench/machine_peaks.h"
 
 #include <immintrin.h>
+#include <pthread.h>
+#include <sched.h>
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <memory>
 #include <thread>
 
@@ -119,6 +122,40 @@ void Triad(double* a, const double* b, const double* c, double s, long begin, lo
   for (long i = begin; i < end; ++i) a[i] = b[i] + s * c[i];
 }
 
+void AddInPlace(float* a, long n, float s, long passes) {
+  for (long pass = 0; pass < passes; ++pass) {
+    for (long i = 0; i < n; ++i) a[i] += s;
+    // Every pass goes through memory: without this the compiler may swap the
+    // loops and keep each element in a register for all the passes.
+    asm volatile("" : : "r"(a) : "memory");
+  }
+}
+
+double CoreLoadStoreGbPerS(int core, std::chrono::milliseconds duration) {
+  constexpr long kElements = 4096;  // 16 KiB of floats
+  constexpr long kPassesPerCheck = 64;
+  double gb_s = std::numeric_limits<double>::quiet_NaN();
+  std::thread probe([&] {
+    cpu_set_t cores;
+    CPU_ZERO(&cores);
+    CPU_SET(core, &cores);
+    if (pthread_setaffinity_np(pthread_self(), sizeof cores, &cores) != 0) return;
+    std::vector<float> a(kElements, 0.0f);
+    AddInPlace(a.data(), kElements, 1.0f, kPassesPerCheck);  // into the cache
+    long passes = 0;
+    const Clock::time_point start = Clock::now();
+    Clock::time_point now;
+    do {
+      AddInPlace(a.data(), kElements, 1.0f, kPassesPerCheck);
+      passes += kPassesPerCheck;
+      now = Clock::now();
+    } while (now - start < duration);
+    gb_s = 8.0 * kElements * passes / std::chrono::duration<double>(now - start).count() * 1e-9;
+  });
+  probe.join();
+  return gb_s;
+}
+
 MachinePeaks MeasureMachinePeaks(int max_threads) {
   const int cores = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   MachinePeaks peaks;
@@ -126,6 +163,9 @@ MachinePeaks MeasureMachinePeaks(int max_threads) {
   for (int threads = 1; threads <= std::min(max_threads, cores); ++threads) {
     peaks.fma_fp32_gflops.push_back(FmaGflops(threads));
     peaks.triad_gb_s.push_back(TriadGbPerS(threads, arrays));
+  }
+  for (int core = 0; core < cores; ++core) {
+    peaks.core_load_store_gb_s.push_back(CoreLoadStoreGbPerS(core, std::chrono::milliseconds(100)));
   }
   return peaks;
 }

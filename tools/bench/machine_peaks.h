@@ -1,5 +1,6 @@
 #pragma once
 
+#include <chrono>
 #include <vector>
 
 namespace dg::tools {
@@ -16,6 +17,12 @@ struct MachinePeaks {
   // 1, 2, ... threads, GB/s, counting 24 bytes an element (the write's
   // allocation read is not counted, as STREAM does not).
   std::vector<double> triad_gb_s;
+  // Each logical core alone, the probe's thread pinned to it: loads and
+  // stores that stay in the core's L1 cache (CoreLoadStoreGbPerS). A shared
+  // host can slow one virtual core's loads and stores while its FMAs keep
+  // their speed; a solver, whose step is mostly loads and stores, feels it
+  // and the FMA peak does not show it (docs/benchmarks.md, "The host's peaks").
+  std::vector<double> core_load_store_gb_s;
 };
 
 // On 1 to `max_threads` threads (at most the logical cores); about a second.
@@ -32,5 +39,16 @@ void RunFmaChains(int lanes, float a, float b, long iterations, float* out);
 
 // The triad kernel on [begin, end): a[i] = b[i] + s * c[i]. Exposed for its test.
 void Triad(double* a, const double* b, const double* c, double s, long begin, long end);
+
+// The load/store kernel: `passes` times, a[i] += s for every i in [0, n),
+// each pass reading and writing the whole array. Exposed for its test.
+void AddInPlace(float* a, long n, float s, long passes);
+
+// AddInPlace over 16 KiB (a quarter of the smallest L1 data cache of the
+// machines this runs on) on a thread pinned to logical core `core`, for
+// about `duration`: GB/s counting a 4-byte load and a 4-byte store an
+// element. NaN when the thread cannot be pinned to that core (a process
+// restricted to fewer cores, by taskset or a container).
+double CoreLoadStoreGbPerS(int core, std::chrono::milliseconds duration);
 
 }  // namespace dg::tools

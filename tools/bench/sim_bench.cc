@@ -24,6 +24,7 @@
 #include "sim/tled_solver.h"
 #include "tools/bench/bench_json.h"
 #include "tools/bench/host_interruptions.h"
+#include "tools/bench/machine_peaks.h"
 #include "tools/bench/rounds.h"
 #include "tools/json_text.h"
 #include "tools/phantom/heart_motion.h"
@@ -232,10 +233,12 @@ int TeamSize(int threads) { return std::min(threads, sim::DefaultTeamSize()); }
 
 // Samples, between rounds, the machine a team of each size that runs on more
 // than one thread meets: its barrier, and what the host takes from that many
-// cores (tools/bench/host_interruptions.h).
+// cores (tools/bench/host_interruptions.h); and each core's speed alone at
+// loads and stores (tools/bench/machine_peaks.h).
 class MachineSamples {
  public:
-  explicit MachineSamples(const std::vector<int>& threads) {
+  explicit MachineSamples(const std::vector<int>& threads)
+      : core_load_store_(std::max(1u, std::thread::hardware_concurrency())) {
     for (int t : threads) {
       if (TeamSize(t) > 1) samples_[TeamSize(t)];
     }
@@ -245,6 +248,18 @@ class MachineSamples {
       samples.barrier_ns.push_back(MeasureBarrierNs(team));
       samples.host.push_back(MeasureHostInterruptions(team, kHostSample));
     }
+    for (size_t core = 0; core < core_load_store_.size(); ++core) {
+      core_load_store_[core].push_back(CoreLoadStoreGbPerS(static_cast<int>(core), kCoreSample));
+    }
+  }
+  // Per core, the median of its samples.
+  std::vector<double> CoreLoadStore() const {
+    std::vector<double> medians;
+    for (std::vector<double> samples : core_load_store_) {
+      std::sort(samples.begin(), samples.end());
+      medians.push_back(samples.empty() ? 0 : MedianOfSorted(samples));
+    }
+    return medians;
   }
   // Medians at `threads` threads; 0 on one.
   double BarrierNs(int threads) {
@@ -270,6 +285,8 @@ class MachineSamples {
   // Long enough for some tens of the host's interruptions, short enough to
   // sample between every round.
   static constexpr std::chrono::milliseconds kHostSample{20};
+  static constexpr std::chrono::milliseconds kCoreSample{10};
+  std::vector<std::vector<double>> core_load_store_;  // per core
   struct Samples {
     std::vector<double> barrier_ns;
     std::vector<HostInterruptions> host;
@@ -368,6 +385,7 @@ std::vector<SimBenchRecord> MeasureForward(const BenchProblem& problem, const Si
                                           resident_mb[k], problem.stability, options);
     record.barrier_ns = machine.BarrierNs(options.threads[k]);
     record.host = machine.Host(options.threads[k]);
+    record.core_load_store_gb_s = machine.CoreLoadStore();
     if (options.threads[k] > 1) record.nothing_shared_tet_steps_per_s = MedianOfSorted(timed[next_apart++].rates);
     RecordTeamTiming(teams[k].front()->team(), &record);
     records.push_back(record);
@@ -475,6 +493,7 @@ std::vector<SimBenchRecord> MeasureCoupled(const PhantomProblem& problem, const 
                                           resident_mb[k], problem.stability, options);
     record.barrier_ns = machine.BarrierNs(options.threads[k]);
     record.host = machine.Host(options.threads[k]);
+    record.core_load_store_gb_s = machine.CoreLoadStore();
     if (has_inverse) {
       record.sequential_tet_steps_per_s = MedianOfSorted(timed[options.threads.size() + k].rates);
       record.concurrent_gain = record.tet_steps_per_s / record.sequential_tet_steps_per_s;
@@ -543,6 +562,8 @@ void WriteSimBenchJson(const std::string& path, const std::vector<SimBenchRecord
   for (const SimBenchRecord& r : records) {
     nlohmann::json working_us = nlohmann::json::array();
     for (double us : r.working_us_per_step) working_us.push_back(Significant(us, 4));
+    nlohmann::json core_load_store = nlohmann::json::array();
+    for (double gb_s : r.core_load_store_gb_s) core_load_store.push_back(Significant(gb_s, 3));
     const nlohmann::ordered_json record = {{"mesh", r.mesh},
                                            {"mesh_tets", r.mesh_tets},
                                            {"mesh_nodes", r.mesh_nodes},
@@ -561,6 +582,7 @@ void WriteSimBenchJson(const std::string& path, const std::vector<SimBenchRecord
                                            {"host_took_percent", Significant(r.host.per_core_percent, 3)},
                                            {"host_took_any_core_percent", Significant(r.host.any_core_percent, 3)},
                                            {"host_gaps_per_ms", Significant(r.host.gaps_per_ms, 3)},
+                                           {"core_load_store_gb_s", core_load_store},
                                            {"resident_mb", Significant(r.resident_mb, 4)},
                                            {"realtime_factor", Significant(r.realtime_factor, 6)},
                                            {"dt_s", Significant(r.dt_s, 6)},
@@ -580,15 +602,20 @@ std::string SimBenchTable(const std::vector<SimBenchRecord>& records) {
   std::string table =
       "| mode | mesh | tets | nodes | precision | threads | M tet-steps/s (median) | min-max | x 1 thread | "
       "barrier ns | nothing shared M | work us/step | at barrier us/step (long waits) | host took % (any core) | "
+      "cores' L1 load/store GB/s | "
       "resident MB | real-time factor | concurrent gain | inverse every | motion error um | dt_cr ms |\n"
-      "|---|---|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
+      "|---|---|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
   for (const SimBenchRecord& r : records) {
     char gain[16] = "-", speedup[16] = "-", barrier[16] = "-", interval[16] = "-", error[16] = "-", apart[16] = "-";
     char at_barrier[32] = "-", host[32] = "-";
-    char working[64] = "-";  // each worker's, "86.2/88.9"
+    char working[64] = "-", cores[64] = "-";  // each worker's, "86.2/88.9"; each core's, "207/140"
     for (size_t w = 0; w < r.working_us_per_step.size(); ++w) {
       const size_t used = w == 0 ? 0 : std::strlen(working);
       std::snprintf(working + used, sizeof working - used, "%s%.1f", w == 0 ? "" : "/", r.working_us_per_step[w]);
+    }
+    for (size_t c = 0; c < r.core_load_store_gb_s.size(); ++c) {
+      const size_t used = c == 0 ? 0 : std::strlen(cores);
+      std::snprintf(cores + used, sizeof cores - used, "%s%.0f", c == 0 ? "" : "/", r.core_load_store_gb_s[c]);
     }
     if (!r.working_us_per_step.empty()) {
       std::snprintf(at_barrier, sizeof at_barrier, "%.1f (%.1f)", r.barrier_us_per_step, r.long_waits_us_per_step);
@@ -602,10 +629,10 @@ std::string SimBenchTable(const std::vector<SimBenchRecord>& records) {
     }
     if (r.speedup_over_1_thread > 0) std::snprintf(speedup, sizeof speedup, "%.2f", r.speedup_over_1_thread);
     if (r.barrier_ns > 0) std::snprintf(barrier, sizeof barrier, "%.0f", r.barrier_ns);
-    table += Printed("| %s | %s | %d | %d | %s | %d | %.1f | %.1f-%.1f | %s | %s | %s | %s | %s | %s | %.0f | %.2f | %s | %s | %s | %.3f |\n",
+    table += Printed("| %s | %s | %d | %d | %s | %d | %.1f | %.1f-%.1f | %s | %s | %s | %s | %s | %s | %s | %.0f | %.2f | %s | %s | %s | %.3f |\n",
                      r.mode.c_str(), r.mesh.c_str(), r.mesh_tets, r.mesh_nodes, sim::ToString(r.precision).c_str(), r.threads,
                      r.tet_steps_per_s / 1e6, r.tet_steps_per_s_min / 1e6, r.tet_steps_per_s_max / 1e6, speedup,
-                     barrier, apart, working, at_barrier, host, r.resident_mb, r.realtime_factor, gain, interval, error, r.dt_critical_s * 1e3);
+                     barrier, apart, working, at_barrier, host, cores, r.resident_mb, r.realtime_factor, gain, interval, error, r.dt_critical_s * 1e3);
   }
   return table;
 }

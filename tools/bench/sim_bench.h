@@ -77,6 +77,10 @@ struct SimBenchRecord {
   // On 2 or more threads (else 0): what the host took from that many cores,
   // the median of samples taken between the rounds (tools/bench/host_interruptions.h).
   HostInterruptions host;
+  // Each logical core alone, between the rounds: L1 loads and stores, GB/s,
+  // the median of its samples (tools/bench/machine_peaks.h). When the cores
+  // differ, so do one thread's rate and the second core's share of two.
+  std::vector<double> core_load_store_gb_s;
   // The process's resident memory with this configuration alone built and
   // stepped, the heap earlier configurations freed returned: its arrays, the
   // heap, and the pages of the libraries the program maps (docs/benchmarks.md).
