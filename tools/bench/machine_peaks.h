@@ -47,8 +47,8 @@ void AddInPlace(float* a, long n, float s, long passes);
 // AddInPlace over 16 KiB (a quarter of the smallest L1 data cache of the
 // machines this runs on) on a thread pinned to logical core `core`, for
 // about `duration`: GB/s counting a 4-byte load and a 4-byte store an
-// element. NaN when the thread cannot be pinned to that core (a process
-// restricted to fewer cores, by taskset or a container).
+// element. NaN when no thread can be pinned to that core (one outside the
+// process's cpuset, as in a container given fewer cores).
 double CoreLoadStoreGbPerS(int core, std::chrono::milliseconds duration);
 
 }  // namespace dg::tools

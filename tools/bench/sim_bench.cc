@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <fstream>
@@ -252,12 +253,13 @@ class MachineSamples {
       core_load_store_[core].push_back(CoreLoadStoreGbPerS(static_cast<int>(core), kCoreSample));
     }
   }
-  // Per core, the median of its samples.
+  // Per core, the median of its samples; NaN for a core the process may not run on.
   std::vector<double> CoreLoadStore() const {
     std::vector<double> medians;
     for (std::vector<double> samples : core_load_store_) {
+      std::erase_if(samples, [](double gb_s) { return std::isnan(gb_s); });
       std::sort(samples.begin(), samples.end());
-      medians.push_back(samples.empty() ? 0 : MedianOfSorted(samples));
+      medians.push_back(samples.empty() ? std::numeric_limits<double>::quiet_NaN() : MedianOfSorted(samples));
     }
     return medians;
   }
