@@ -44,10 +44,9 @@ void Triad(double* a, const double* b, const double* c, double s, long begin, lo
 // each pass reading and writing the whole array. Exposed for its test.
 void AddInPlace(float* a, long n, float s, long passes);
 
-// AddInPlace over 16 KiB (a quarter of the smallest L1 data cache of the
-// machines this runs on) on a thread pinned to logical core `core`, for
-// about `duration`: GB/s counting a 4-byte load and a 4-byte store an
-// element. NaN when no thread can be pinned to that core (one outside the
+// AddInPlace over 16 KiB (inside any x86-64 core's L1 data cache, 32-48
+// KiB) on a thread pinned to logical core `core`, for about `duration`:
+// GB/s counting a 4-byte load and a 4-byte store an element. NaN when no thread can be pinned to that core (one outside the
 // process's cpuset, as in a container given fewer cores).
 double CoreLoadStoreGbPerS(int core, std::chrono::milliseconds duration);
 
