@@ -76,6 +76,12 @@ TEST_CASE("machine peaks: one figure a thread count, up to the cores", "[tools][
   CHECK(peaks.core_load_store_gb_s[sched_getcpu()] > 0);  // a core this thread runs on
 }
 
+TEST_CASE("machine peaks: each core's figure in a table cell", "[tools][unit]") {
+  CHECK(CoreLoadStoreText({327.4, 252.6}) == "327/253");
+  CHECK(CoreLoadStoreText({std::nan(""), 10.0}) == "-/10");
+  CHECK(CoreLoadStoreText({}) == "-");
+}
+
 TEST_CASE("machine peaks: a core the process may not run on has no load/store figure", "[tools][unit]") {
   CHECK(std::isnan(CoreLoadStoreGbPerS(CPU_SETSIZE - 1, std::chrono::milliseconds(1))));
 }

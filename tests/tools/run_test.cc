@@ -4,12 +4,15 @@
 // stage leaves a readable log marked incomplete; the report recomputes the
 // run's summary from the saved log. With --video-layout side_by_side the video
 // and the snapshots show both eyes, each with its own eye's overlays.
+#include <sched.h>
+
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include <catch2/catch.hpp>
@@ -26,6 +29,8 @@
 #include "tests/support/h5_plain.h"
 #include "tests/support/text_file.h"
 #include "tests/support/tiny_phantom.h"
+#include "tools/bench/machine_peaks.h"
+#include "tools/bench/run_bench.h"
 #include "tools/report/saved_run.h"
 #include "tools/report/timing_plot.h"
 
@@ -260,6 +265,32 @@ TEST_CASE("run: a failing stage leaves a readable log marked incomplete", "[tool
   CHECK_THAT(StringAttribute(file, "/", "error"), Catch::Contains("frame 7"));
   CHECK(Rows(file, "/timings/frame") == 7 * 8);  // capture ... simulate, composite, sink
   H5Fclose(file);
+}
+
+}  // namespace dg::tools
+
+namespace dg::tools {
+
+// `dynaguide bench run`'s record of a run says the machine it met just
+// before: what the host took from the run's cores, and each core's own
+// speed at loads and stores (docs/benchmarks.md). No speed is asserted.
+TEST_CASE("bench run: a run's record holds the run and the machine it met", "[tools][integration]") {
+  RunBenchOptions options;
+  options.scene = TinyPhantomDir() + "/scene.yaml";
+  options.policies = {pipeline::Policy::kOffline};
+  options.threads = 2;
+  options.repeats = 1;
+  const std::vector<RunBenchRecord> records = RunRunBench(options, false);
+  REQUIRE(records.size() == 1);
+  const RunBenchRecord& r = records.front();
+  CHECK(r.statistics.frames == io::ReadScene(options.scene).video.frames);
+  CHECK(r.statistics.dropped == 0);  // offline: lossless
+  CHECK(r.host.per_core_percent >= 0);
+  CHECK(r.host.any_core_percent >= r.host.per_core_percent);
+  REQUIRE(r.core_load_store_gb_s.size() == std::max(1u, std::thread::hardware_concurrency()));
+  for (double gb_s : r.core_load_store_gb_s) CHECK((std::isnan(gb_s) || gb_s > 0));  // NaN: outside the cpuset
+  CHECK(r.core_load_store_gb_s[sched_getcpu()] > 0);  // a core this thread runs on
+  CHECK(RunBenchTable(records).find(CoreLoadStoreText(r.core_load_store_gb_s)) != std::string::npos);
 }
 
 }  // namespace dg::tools

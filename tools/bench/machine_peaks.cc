@@ -9,6 +9,7 @@
 #include <cmath>
 #include <limits>
 #include <memory>
+#include <string>
 #include <thread>
 
 #include "sim/error.h"
@@ -154,6 +155,16 @@ double CoreLoadStoreGbPerS(int core, std::chrono::milliseconds duration) {
   });
   probe.join();
   return gb_s;
+}
+
+std::string CoreLoadStoreText(const std::vector<double>& gb_s) {
+  if (gb_s.empty()) return "-";
+  std::string text;
+  for (size_t core = 0; core < gb_s.size(); ++core) {
+    if (core > 0) text += '/';
+    text += std::isnan(gb_s[core]) ? std::string("-") : std::to_string(std::lround(gb_s[core]));
+  }
+  return text;
 }
 
 MachinePeaks MeasureMachinePeaks(int max_threads) {

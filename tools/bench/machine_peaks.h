@@ -1,6 +1,7 @@
 #pragma once
 
 #include <chrono>
+#include <string>
 #include <vector>
 
 namespace dg::tools {
@@ -49,5 +50,8 @@ void AddInPlace(float* a, long n, float s, long passes);
 // GB/s counting a 4-byte load and a 4-byte store an element. NaN when no thread can be pinned to that core (one outside the
 // process's cpuset, as in a container given fewer cores).
 double CoreLoadStoreGbPerS(int core, std::chrono::milliseconds duration);
+
+// Each core's figure in GB/s, for a table: "327/253"; "-" for none.
+std::string CoreLoadStoreText(const std::vector<double>& gb_s);
 
 }  // namespace dg::tools

@@ -1,8 +1,10 @@
 #include "tools/bench/run_bench.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cstdio>
 #include <filesystem>
+#include <thread>
 
 #include <unistd.h>
 
@@ -11,6 +13,7 @@
 #include "pipeline/run_scene.h"
 #include "sim/statistics.h"
 #include "tools/bench/bench_json.h"
+#include "tools/bench/machine_peaks.h"
 #include "tools/bench/pipeline_bench.h"
 #include "tools/json_text.h"
 #include "tools/phantom/phantom_cache.h"
@@ -25,6 +28,14 @@ struct Spread {
 Spread SpreadOf(const std::vector<double>& values) {
   const auto [low, high] = std::minmax_element(values.begin(), values.end());
   return {sim::Median(values), *low, *high};
+}
+
+// The machine a run is about to meet (RunBenchRecord::host, core_load_store_gb_s).
+void SampleMachine(int threads, RunBenchRecord* record) {
+  constexpr std::chrono::milliseconds kSample{20};
+  record->host = MeasureHostInterruptions(threads, kSample);
+  const int cores = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  for (int core = 0; core < cores; ++core) record->core_load_store_gb_s.push_back(CoreLoadStoreGbPerS(core, kSample));
 }
 
 }  // namespace
@@ -48,8 +59,15 @@ std::vector<RunBenchRecord> RunRunBench(const RunBenchOptions& options, bool pro
       run.graph.policy = policy;
       run.video = false;
       run.progress = false;
+      RunBenchRecord record;
+      record.policy = policy;
+      record.threads = options.threads;
+      record.repeat = repeat;
+      SampleMachine(options.threads, &record);
       const pipeline::RunOutcome outcome = pipeline::RunScene(run);
-      records.push_back({policy, options.threads, repeat, outcome.statistics, outcome.simulated_frames});
+      record.statistics = outcome.statistics;
+      record.simulated_frames = outcome.simulated_frames;
+      records.push_back(std::move(record));
     }
   }
   std::filesystem::remove_all(scratch);
@@ -58,13 +76,15 @@ std::vector<RunBenchRecord> RunRunBench(const RunBenchOptions& options, bool pro
 
 std::string RunBenchTable(const std::vector<RunBenchRecord>& records) {
   std::string table =
-      "| policy | threads | run | frames | dropped | real-time factor | latency median / p95 ms |\n"
-      "|---|---:|---:|---:|---:|---:|---:|\n";
+      "| policy | threads | run | frames | dropped | real-time factor | latency median / p95 ms | "
+      "before: host took % (any core) | before: cores' L1 load/store GB/s |\n"
+      "|---|---:|---:|---:|---:|---:|---:|---:|---:|\n";
   for (const RunBenchRecord& r : records) {
     const pipeline::RunStatistics& s = r.statistics;
-    table += Printed("| %s | %d | %d | %lld | %lld | %.2f | %.1f / %.1f |\n", pipeline::PolicyName(r.policy), r.threads,
-                     r.repeat + 1, static_cast<long long>(s.frames), static_cast<long long>(s.dropped),
-                     s.realtime_factor, s.latency_median_ms, s.latency_p95_ms);
+    table += Printed("| %s | %d | %d | %lld | %lld | %.2f | %.1f / %.1f | %.1f (%.1f) | %s |\n",
+                     pipeline::PolicyName(r.policy), r.threads, r.repeat + 1, static_cast<long long>(s.frames),
+                     static_cast<long long>(s.dropped), s.realtime_factor, s.latency_median_ms, s.latency_p95_ms,
+                     r.host.per_core_percent, r.host.any_core_percent, CoreLoadStoreText(r.core_load_store_gb_s).c_str());
   }
   for (pipeline::Policy policy : {pipeline::Policy::kOffline, pipeline::Policy::kRealtime}) {
     std::vector<double> factor, median, p95;
@@ -90,6 +110,8 @@ void WriteRunBenchJson(const std::string& path, const std::vector<RunBenchRecord
   std::vector<std::string> texts;
   for (const RunBenchRecord& r : records) {
     const pipeline::RunStatistics& s = r.statistics;
+    nlohmann::json core_load_store = nlohmann::json::array();
+    for (double gb_s : r.core_load_store_gb_s) core_load_store.push_back(Significant(gb_s, 3));
     const nlohmann::ordered_json record = {{"policy", pipeline::PolicyName(r.policy)},
                                            {"threads", r.threads},
                                            {"repeat", r.repeat + 1},
@@ -99,6 +121,9 @@ void WriteRunBenchJson(const std::string& path, const std::vector<RunBenchRecord
                                            {"latency_ms_median", Significant(s.latency_median_ms, 4)},
                                            {"latency_ms_p95", Significant(s.latency_p95_ms, 4)},
                                            {"simulated_frames", r.simulated_frames},
+                                           {"host_took_percent", Significant(r.host.per_core_percent, 3)},
+                                           {"host_took_any_core_percent", Significant(r.host.any_core_percent, 3)},
+                                           {"core_load_store_gb_s", core_load_store},
                                            {"stages", nlohmann::ordered_json::parse(StageTimingsJson(s))}};
     texts.push_back(JsonText(record, -1));
   }

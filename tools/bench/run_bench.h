@@ -5,6 +5,7 @@
 
 #include "pipeline/run_statistics.h"
 #include "pipeline/stage_graph.h"
+#include "tools/bench/host_interruptions.h"
 
 namespace dg::tools {
 
@@ -23,6 +24,12 @@ struct RunBenchRecord {
   int repeat = 0;
   pipeline::RunStatistics statistics;  // dropped, real-time factor, latency, each stage's timings
   std::int64_t simulated_frames = 0;
+  // The machine just before the run: what the host took from `threads`
+  // cores (tools/bench/host_interruptions.h), and each core alone at L1
+  // loads and stores (tools/bench/machine_peaks.h), so that a slow run is
+  // read against the state it met.
+  HostInterruptions host;
+  std::vector<double> core_load_store_gb_s;
 };
 
 // @throws dg::Error for an unreadable scene, or a run that fails (naming it).
@@ -30,8 +37,9 @@ std::vector<RunBenchRecord> RunRunBench(const RunBenchOptions& options, bool pro
 // Each run, then per policy the median and range of the real-time factor and latency.
 std::string RunBenchTable(const std::vector<RunBenchRecord>& records);
 // Records with policy, threads, repeat, frames, dropped, realtime_factor,
-// latency_ms_median, latency_ms_p95, simulated_frames, each stage's median
-// and p95 ms, and the machine.
+// latency_ms_median, latency_ms_p95, simulated_frames, host_took_percent,
+// host_took_any_core_percent, core_load_store_gb_s (just before the run),
+// each stage's median and p95 ms, and the machine.
 void WriteRunBenchJson(const std::string& path, const std::vector<RunBenchRecord>& records);
 
 }  // namespace dg::tools

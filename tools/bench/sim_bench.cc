@@ -610,14 +610,10 @@ std::string SimBenchTable(const std::vector<SimBenchRecord>& records) {
   for (const SimBenchRecord& r : records) {
     char gain[16] = "-", speedup[16] = "-", barrier[16] = "-", interval[16] = "-", error[16] = "-", apart[16] = "-";
     char at_barrier[32] = "-", host[32] = "-";
-    char working[64] = "-", cores[64] = "-";  // each worker's, "86.2/88.9"; each core's, "207/140"
+    char working[64] = "-";  // each worker's, "86.2/88.9"
     for (size_t w = 0; w < r.working_us_per_step.size(); ++w) {
       const size_t used = w == 0 ? 0 : std::strlen(working);
       std::snprintf(working + used, sizeof working - used, "%s%.1f", w == 0 ? "" : "/", r.working_us_per_step[w]);
-    }
-    for (size_t c = 0; c < r.core_load_store_gb_s.size(); ++c) {
-      const size_t used = c == 0 ? 0 : std::strlen(cores);
-      std::snprintf(cores + used, sizeof cores - used, "%s%.0f", c == 0 ? "" : "/", r.core_load_store_gb_s[c]);
     }
     if (!r.working_us_per_step.empty()) {
       std::snprintf(at_barrier, sizeof at_barrier, "%.1f (%.1f)", r.barrier_us_per_step, r.long_waits_us_per_step);
@@ -634,7 +630,7 @@ std::string SimBenchTable(const std::vector<SimBenchRecord>& records) {
     table += Printed("| %s | %s | %d | %d | %s | %d | %.1f | %.1f-%.1f | %s | %s | %s | %s | %s | %s | %s | %.0f | %.2f | %s | %s | %s | %.3f |\n",
                      r.mode.c_str(), r.mesh.c_str(), r.mesh_tets, r.mesh_nodes, sim::ToString(r.precision).c_str(), r.threads,
                      r.tet_steps_per_s / 1e6, r.tet_steps_per_s_min / 1e6, r.tet_steps_per_s_max / 1e6, speedup,
-                     barrier, apart, working, at_barrier, host, cores, r.resident_mb, r.realtime_factor, gain, interval, error, r.dt_critical_s * 1e3);
+                     barrier, apart, working, at_barrier, host, CoreLoadStoreText(r.core_load_store_gb_s).c_str(), r.resident_mb, r.realtime_factor, gain, interval, error, r.dt_critical_s * 1e3);
   }
   return table;
 }
