@@ -157,6 +157,13 @@ double CoreLoadStoreGbPerS(int core, std::chrono::milliseconds duration) {
   return gb_s;
 }
 
+std::vector<double> EachCoreLoadStoreGbPerS(std::chrono::milliseconds duration) {
+  const int cores = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  std::vector<double> gb_s;
+  for (int core = 0; core < cores; ++core) gb_s.push_back(CoreLoadStoreGbPerS(core, duration));
+  return gb_s;
+}
+
 std::string CoreLoadStoreText(const std::vector<double>& gb_s) {
   if (gb_s.empty()) return "-";
   std::string text;
@@ -175,9 +182,7 @@ MachinePeaks MeasureMachinePeaks(int max_threads) {
     peaks.fma_fp32_gflops.push_back(FmaGflops(threads));
     peaks.triad_gb_s.push_back(TriadGbPerS(threads, arrays));
   }
-  for (int core = 0; core < cores; ++core) {
-    peaks.core_load_store_gb_s.push_back(CoreLoadStoreGbPerS(core, std::chrono::milliseconds(100)));
-  }
+  peaks.core_load_store_gb_s = EachCoreLoadStoreGbPerS(std::chrono::milliseconds(100));
   return peaks;
 }
 

@@ -51,6 +51,9 @@ void AddInPlace(float* a, long n, float s, long passes);
 // process's cpuset, as in a container given fewer cores).
 double CoreLoadStoreGbPerS(int core, std::chrono::milliseconds duration);
 
+// CoreLoadStoreGbPerS of every logical core in turn, each alone.
+std::vector<double> EachCoreLoadStoreGbPerS(std::chrono::milliseconds duration);
+
 // Each core's figure in GB/s, for a table: "327/253"; "-" for none.
 std::string CoreLoadStoreText(const std::vector<double>& gb_s);
 

@@ -4,7 +4,6 @@
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
-#include <thread>
 
 #include <unistd.h>
 
@@ -34,8 +33,7 @@ Spread SpreadOf(const std::vector<double>& values) {
 void SampleMachine(int threads, RunBenchRecord* record) {
   constexpr std::chrono::milliseconds kSample{20};
   record->host = MeasureHostInterruptions(threads, kSample);
-  const int cores = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
-  for (int core = 0; core < cores; ++core) record->core_load_store_gb_s.push_back(CoreLoadStoreGbPerS(core, kSample));
+  record->core_load_store_gb_s = EachCoreLoadStoreGbPerS(kSample);
 }
 
 }  // namespace

@@ -249,9 +249,8 @@ class MachineSamples {
       samples.barrier_ns.push_back(MeasureBarrierNs(team));
       samples.host.push_back(MeasureHostInterruptions(team, kHostSample));
     }
-    for (size_t core = 0; core < core_load_store_.size(); ++core) {
-      core_load_store_[core].push_back(CoreLoadStoreGbPerS(static_cast<int>(core), kCoreSample));
-    }
+    const std::vector<double> now = EachCoreLoadStoreGbPerS(kCoreSample);
+    for (size_t core = 0; core < core_load_store_.size(); ++core) core_load_store_[core].push_back(now[core]);
   }
   // Per core, the median of its samples; NaN for a core the process may not run on.
   std::vector<double> CoreLoadStore() const {
