@@ -27,6 +27,7 @@
 #include "tools/bench/host_interruptions.h"
 #include "tools/bench/machine_peaks.h"
 #include "tools/bench/rounds.h"
+#include "tools/bench/run_together.h"
 #include "tools/json_text.h"
 #include "tools/phantom/heart_motion.h"
 #include "tools/phantom/phantom_spec.h"
@@ -324,8 +325,8 @@ std::unique_ptr<sim::TledSolver<T>> MakeForwardSolver(const BenchProblem& proble
       solver_options, &problem.stability);
 }
 
-// Repeats of `solvers`, all stepped at once, each on a thread of its own
-// when there are several.
+// Repeats of `solvers`, all stepped at once, each on a thread and a core of
+// its own when there are several (RunTogether).
 template <typename T>
 TimedConfiguration ForwardConfiguration(const std::vector<std::unique_ptr<sim::TledSolver<T>>>& solvers,
                                         const BenchProblem& problem, const std::vector<double>& targets,
@@ -339,11 +340,9 @@ TimedConfiguration ForwardConfiguration(const std::vector<std::unique_ptr<sim::T
       solvers.front()->Advance(steps / substeps, targets);
       return;
     }
-    std::vector<std::thread> running;
-    for (const auto& solver : solvers) {
-      running.emplace_back([&solver, &targets, steps, substeps] { solver->Advance(steps / substeps, targets); });
-    }
-    for (std::thread& thread : running) thread.join();
+    RunTogether(static_cast<int>(solvers.size()), [&](int t, std::chrono::steady_clock::time_point) {
+      solvers[t]->Advance(steps / substeps, targets);
+    });
   };
   return timed;
 }
