@@ -172,12 +172,12 @@ void CoupledSimulation<T>::AdvanceCoupled(int steps) {
     const bool inverse_side_pass = p % passes_per_step == 1;  // sequential: the step's second pass
     const double fraction_end = double(p / passes_per_step + 1) / steps;
     const bool with_inverse = runs_inverse(first_step + p / passes_per_step);
-    if (!inverse_side_pass) solver.PrefetchCutLines(worker);
     if (options_.concurrent && with_inverse) {
       team_->ForEachChunkThen(
           worker, both_sides_homes,
           [&](int c) {
             if (c % 2 == 0) {
+              solver.RequestCutLines(worker, c / 2);
               solver.ElementChunk(c / 2);
             } else {
               inverse.ElementChunk(c / 2);
@@ -197,7 +197,12 @@ void CoupledSimulation<T>::AdvanceCoupled(int steps) {
           both_sides_node_order);
     } else if (!inverse_side_pass) {
       team_->ForEachChunkThen(
-          worker, homes.elements, [&](int c) { solver.ElementChunk(c); }, homes.nodes,
+          worker, homes.elements,
+          [&](int c) {
+            solver.RequestCutLines(worker, c);
+            solver.ElementChunk(c);
+          },
+          homes.nodes,
           [&](int c) { solver.NodeChunk(c, fraction_end); }, homes.node_order);
     } else if (with_inverse) {
       team_->ForEachChunkThen(

@@ -226,9 +226,13 @@ void TledSolver<T>::Advance(int steps, std::span<const double> targets_m) {
       total,
       [&](int worker, int step) {
         const double fraction_end = double(step + 1) / total;
-        PrefetchCutLines(worker);
         team_->ForEachChunkThen(
-            worker, homes_.elements, [&](int c) { ElementChunk(c); }, homes_.nodes,
+            worker, homes_.elements,
+            [&](int c) {
+              RequestCutLines(worker, c);
+              ElementChunk(c);
+            },
+            homes_.nodes,
             [&](int c) { NodeChunk(c, fraction_end); }, homes_.node_order);
       },
       [&](int) {
@@ -239,17 +243,28 @@ void TledSolver<T>::Advance(int steps, std::span<const double> targets_m) {
 }
 
 template <typename T>
-void TledSolver<T>::PrefetchCutLines(int worker) const {
+void TledSolver<T>::RequestCutLines(int worker, int chunk) const {
   // Only where worker w runs part w (the team's size is the model's parts).
   if (!homes_.node_order.per_range || worker >= model_->parts()) return;
+  const int own_begin = homes_.elements[worker], own_end = homes_.elements[worker + 1];
+  const int slices = std::min(kCutRequestSlices, own_end - own_begin);
+  const int slice = chunk - own_begin;
+  if (slice < 0 || slice >= slices) return;
+  // A slice of each list before each of the worker's first chunks: asked for
+  // all at once, some hundred lines at the far latency held up the pass's
+  // start (docs/solver.md, "Subdomains").
+  auto part_of = [&](std::span<const int32_t> lines) {
+    return lines.subspan(lines.size() * slice / slices,
+                         lines.size() * (slice + 1) / slices - lines.size() * slice / slices);
+  };
   // The other cores wrote these displacements at the end of the last step;
   // the part's halo, at the end of its element pass, reads them. Asked for
   // now, they cross while the interior is computed.
-  for (int32_t line : model_->halo_lines(worker)) __builtin_prefetch(u_.data() + line, 0, 3);
+  for (int32_t line : part_of(model_->halo_lines(worker))) __builtin_prefetch(u_.data() + line, 0, 3);
   // The other cores read these lines of the next state's buffer two steps
   // ago; taking them back for writing now keeps the node pass's stores from
   // waiting on the invalidations. Nobody reads that buffer during this step.
-  for (int32_t line : model_->shared_lines(worker)) __builtin_prefetch(u_next_.data() + line, 1, 3);
+  for (int32_t line : part_of(model_->shared_lines(worker))) __builtin_prefetch(u_next_.data() + line, 1, 3);
 }
 
 template <typename T>

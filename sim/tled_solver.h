@@ -167,9 +167,12 @@ class TledSolver {
   // nodal forces (3 per node, as GatherNodalForce sums them) if the caller
   // gathered them; null gathers here.
   void NodeChunk(int chunk, double fraction_end, const T* gathered = nullptr);
-  // Worker `worker`'s requests, at a pass's start, for the lines of the cut
-  // its part exchanges with the others (TledModel::halo_lines, shared_lines).
-  void PrefetchCutLines(int worker) const;
+  // Worker `worker`'s requests for the lines of the cut its part exchanges
+  // with the others (TledModel::halo_lines, shared_lines), spread over the
+  // first kCutRequestSlices element chunks of its own range: called before
+  // each element chunk it runs, a slice of each list before each of those.
+  void RequestCutLines(int worker, int chunk) const;
+  static constexpr int kCutRequestSlices = 8;
   void FinishStep();
   void CheckStep();
   bool EnergyBlowingUp() const;
