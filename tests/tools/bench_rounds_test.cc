@@ -94,6 +94,32 @@ TEST_CASE("bench sim: every thread count's record from the same rounds, with its
   CHECK(one.core_load_store_gb_s[sched_getcpu()] > 0);  // a core this thread runs on
 }
 
+TEST_CASE("bench sim: a mesh and its shuffled copy are timed in the same rounds", "[tools][integration]") {
+  SimBenchOptions options;
+  options.tets = {600};
+  options.threads = {1, 2};
+  options.precisions = {sim::Precision::kFloat};
+  options.repeats = 3;
+  options.simulated_per_repeat_s = 0.004;
+  options.shuffled_too = true;
+  const std::vector<SimBenchRecord> records = RunSimBench(options, false);
+  REQUIRE(records.size() == 4);
+  const SimBenchRecord &shuffled = records[1], &original = records[3];
+  CHECK(shuffled.mesh == "Gmsh box, nodes shuffled");
+  CHECK(original.mesh == "Gmsh box");
+  CHECK(shuffled.mesh_tets == original.mesh_tets);
+  // The machine is sampled between rounds: one set of samples serves both
+  // orders, so their barrier and host figures are the same numbers.
+  CHECK(shuffled.threads == 2);
+  CHECK(original.threads == 2);
+  CHECK(shuffled.barrier_ns == original.barrier_ns);
+  CHECK(shuffled.host.any_core_percent == original.host.any_core_percent);
+  CHECK(shuffled.nothing_shared_tet_steps_per_s > 0);
+  CHECK(original.nothing_shared_tet_steps_per_s > 0);
+  CHECK(records[0].speedup_over_1_thread == 1.0);
+  CHECK(original.speedup_over_1_thread == Approx(original.tet_steps_per_s / records[2].tet_steps_per_s));
+}
+
 // The share of a span the union of gap intervals covers: overlapping,
 // nested, unsorted and partly outside intervals, counted once.
 TEST_CASE("host interruptions: the union of gaps, clipped to the span", "[tools][unit]") {

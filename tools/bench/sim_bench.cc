@@ -82,9 +82,10 @@ sim::TetMesh ShuffleNodes(const sim::TetMesh& mesh) {
   return shuffled;
 }
 
-// The forward problems: each target size's Gmsh box, or the given file; each
-// also shuffled when asked.
-std::vector<BenchProblem> ForwardProblems(const SimBenchOptions& options) {
+// The forward problems, in groups timed in the same rounds: each target
+// size's Gmsh box, or the given file, with its shuffled copy when asked (so
+// that the two orders are compared over the same minutes of the host).
+std::vector<std::vector<BenchProblem>> ForwardProblems(const SimBenchOptions& options) {
   std::vector<std::pair<std::string, sim::TetMesh>> meshes;
   if (!options.mesh_path.empty()) {
     meshes.emplace_back(options.mesh_path, io::ReadGmsh(options.mesh_path));
@@ -93,12 +94,13 @@ std::vector<BenchProblem> ForwardProblems(const SimBenchOptions& options) {
       meshes.emplace_back("Gmsh box", io::MeshBox({Eigen::Vector3d(0.05, 0.05, 0.05), target}));
     }
   }
-  std::vector<BenchProblem> problems;
+  std::vector<std::vector<BenchProblem>> groups;
   for (auto& [name, mesh] : meshes) {
-    if (options.shuffled_too) problems.push_back(MakeBenchProblem(name + ", nodes shuffled", ShuffleNodes(mesh)));
-    problems.push_back(MakeBenchProblem(name, std::move(mesh)));
+    std::vector<BenchProblem>& group = groups.emplace_back();
+    if (options.shuffled_too) group.push_back(MakeBenchProblem(name + ", nodes shuffled", ShuffleNodes(mesh)));
+    group.push_back(MakeBenchProblem(name, std::move(mesh)));
   }
-  return problems;
+  return groups;
 }
 
 // Nanoseconds per pass of a StepTeam of `threads` workers with nothing to
@@ -347,48 +349,71 @@ TimedConfiguration ForwardConfiguration(const std::vector<std::unique_ptr<sim::T
   return timed;
 }
 
-// One record per thread count: the solver on a team of that many threads
-// and, beside it on 2 or more, as many one-thread solvers as threads, each
-// on its own copy of the model, stepped at once (nothing shared: what the
-// machine gives this kernel on those cores, the threaded rate's ceiling).
-// All are timed in the same rounds.
+// One record per problem of `group` and thread count: the solver on a team
+// of that many threads and, beside it on 2 or more, as many one-thread
+// solvers as threads, each on its own copy of the model, stepped at once
+// (nothing shared: what the machine gives this kernel on those cores, the
+// threaded rate's ceiling). All of the group's are timed in the same rounds.
 template <typename T>
-std::vector<SimBenchRecord> MeasureForward(const BenchProblem& problem, const SimBenchOptions& options) {
-  const std::vector<double> targets(problem.conditions.prescribed_dofs.size(), -kPressDown_m);
-  // Each configuration's memory, measured with nothing else alive.
-  std::vector<double> resident_mb;
-  for (int threads : options.threads) {
-    const auto solver = MakeForwardSolver<T>(problem, TeamSize(threads), options);
-    solver->Advance(1, targets);
-    resident_mb.push_back(ResidentMegabytes());
-  }
+std::vector<SimBenchRecord> MeasureForward(const std::vector<BenchProblem>& group, const SimBenchOptions& options) {
   using Solvers = std::vector<std::unique_ptr<sim::TledSolver<T>>>;
-  std::vector<Solvers> teams(options.threads.size()), apart(options.threads.size());
+  const size_t counts = options.threads.size();
+  // Per problem: its targets, and per thread count its memory (measured with
+  // nothing else alive), its team and its solvers sharing nothing. Sized
+  // before any configuration refers to them.
+  struct Measured {
+    std::vector<double> targets, resident_mb;
+    std::vector<Solvers> teams, apart;
+    std::vector<size_t> team_config, apart_config;  // indices into `timed`
+  };
+  std::vector<Measured> measured(group.size());
   std::vector<TimedConfiguration> timed;
-  for (size_t k = 0; k < options.threads.size(); ++k) {
-    teams[k].push_back(MakeForwardSolver<T>(problem, TeamSize(options.threads[k]), options));
-    timed.push_back(ForwardConfiguration<T>(teams[k], problem, targets, options));
-    timed.back().after_warm_up = [&solver = *teams[k].front()] { solver.team().ResetTiming(); };
+  for (size_t p = 0; p < group.size(); ++p) {
+    Measured& m = measured[p];
+    m.targets.assign(group[p].conditions.prescribed_dofs.size(), -kPressDown_m);
+    for (int threads : options.threads) {
+      const auto solver = MakeForwardSolver<T>(group[p], TeamSize(threads), options);
+      solver->Advance(1, m.targets);
+      m.resident_mb.push_back(ResidentMegabytes());
+    }
   }
-  for (size_t k = 0; k < options.threads.size(); ++k) {
-    if (options.threads[k] < 2) continue;
-    for (int t = 0; t < options.threads[k]; ++t) apart[k].push_back(MakeForwardSolver<T>(problem, 1, options));
-    timed.push_back(ForwardConfiguration<T>(apart[k], problem, targets, options));
+  for (size_t p = 0; p < group.size(); ++p) {
+    const BenchProblem& problem = group[p];
+    Measured& m = measured[p];
+    m.teams.resize(counts);
+    m.apart.resize(counts);
+    m.apart_config.assign(counts, 0);
+    for (size_t k = 0; k < counts; ++k) {
+      m.teams[k].push_back(MakeForwardSolver<T>(problem, TeamSize(options.threads[k]), options));
+      m.team_config.push_back(timed.size());
+      timed.push_back(ForwardConfiguration<T>(m.teams[k], problem, m.targets, options));
+      timed.back().after_warm_up = [&solver = *m.teams[k].front()] { solver.team().ResetTiming(); };
+      if (options.threads[k] < 2) continue;
+      for (int t = 0; t < options.threads[k]; ++t) m.apart[k].push_back(MakeForwardSolver<T>(problem, 1, options));
+      m.apart_config[k] = timed.size();
+      timed.push_back(ForwardConfiguration<T>(m.apart[k], problem, m.targets, options));
+    }
   }
   MachineSamples machine(options.threads);
   TimeInRounds(timed, options.repeats, [&] { machine.Sample(); });
 
   std::vector<SimBenchRecord> records;
-  size_t next_apart = options.threads.size();
-  for (size_t k = 0; k < options.threads.size(); ++k) {
-    SimBenchRecord record = MakeRecord<T>(problem.name, problem.mesh, options.threads[k], "forward", timed[k].rates,
-                                          resident_mb[k], problem.stability, options);
-    record.barrier_ns = machine.BarrierNs(options.threads[k]);
-    record.host = machine.Host(options.threads[k]);
-    record.core_load_store_gb_s = machine.CoreLoadStore();
-    if (options.threads[k] > 1) record.nothing_shared_tet_steps_per_s = MedianOfSorted(timed[next_apart++].rates);
-    RecordTeamTiming(teams[k].front()->team(), &record);
-    records.push_back(record);
+  for (size_t p = 0; p < group.size(); ++p) {
+    const BenchProblem& problem = group[p];
+    const Measured& m = measured[p];
+    for (size_t k = 0; k < counts; ++k) {
+      SimBenchRecord record = MakeRecord<T>(problem.name, problem.mesh, options.threads[k], "forward",
+                                            timed[m.team_config[k]].rates, m.resident_mb[k], problem.stability,
+                                            options);
+      record.barrier_ns = machine.BarrierNs(options.threads[k]);
+      record.host = machine.Host(options.threads[k]);
+      record.core_load_store_gb_s = machine.CoreLoadStore();
+      if (options.threads[k] > 1) {
+        record.nothing_shared_tet_steps_per_s = MedianOfSorted(timed[m.apart_config[k]].rates);
+      }
+      RecordTeamTiming(m.teams[k].front()->team(), &record);
+      records.push_back(record);
+    }
   }
   return records;
 }
@@ -525,10 +550,10 @@ std::vector<SimBenchRecord> RunSimBench(const SimBenchOptions& options, bool pro
   }
   for (const std::string& mode : options.modes) {
     if (mode == "forward") {
-      for (const BenchProblem& problem : ForwardProblems(options)) {
+      for (const std::vector<BenchProblem>& group : ForwardProblems(options)) {
         for (sim::Precision precision : options.precisions) {
-          add(precision == sim::Precision::kFloat ? MeasureForward<float>(problem, options)
-                                                  : MeasureForward<double>(problem, options));
+          add(precision == sim::Precision::kFloat ? MeasureForward<float>(group, options)
+                                                  : MeasureForward<double>(group, options));
         }
       }
       continue;
