@@ -41,10 +41,20 @@ TEST_CASE("RunTogether: each thread on a CPU of its own, the caller's affinity k
 }
 
 TEST_CASE("RunTogether: more threads than CPUs run unpinned, each once", "[tools][unit]") {
+  cpu_set_t caller;
+  REQUIRE(pthread_getaffinity_np(pthread_self(), sizeof caller, &caller) == 0);
   const int threads = static_cast<int>(AllowedCpus().size()) + 1;
   std::vector<int> ran(threads, 0);
-  RunTogether(threads, [&](int t, std::chrono::steady_clock::time_point) { ++ran[t]; });
-  for (int count : ran) CHECK(count == 1);
+  std::vector<char> kept_caller_cpus(threads, 0);
+  RunTogether(threads, [&](int t, std::chrono::steady_clock::time_point) {
+    ++ran[t];
+    cpu_set_t mine;
+    kept_caller_cpus[t] = pthread_getaffinity_np(pthread_self(), sizeof mine, &mine) == 0 && SameAffinity(mine, caller);
+  });
+  for (int t = 0; t < threads; ++t) {
+    CHECK(ran[t] == 1);
+    CHECK(kept_caller_cpus[t]);
+  }
 }
 
 }  // namespace

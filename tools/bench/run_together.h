@@ -28,10 +28,11 @@ inline std::vector<int> AllowedCpus() {
 // `start` when all have finished.
 //
 // With no more threads than allowed CPUs, thread t works pinned to the t-th
-// of them (the caller's own affinity is restored after). Unpinned, two new
-// threads now and then start on one CPU and share it for milliseconds
-// before the scheduler spreads them, and what they measure is then the
-// sharing, not the machine (docs/benchmarks.md, "The host's peaks").
+// of them (the caller's own affinity is restored after; where the system
+// refuses, they run unpinned). Unpinned, two new threads now and then start
+// on one CPU and share it for milliseconds before the scheduler spreads
+// them, and what they measure is then the sharing, not the machine
+// (docs/benchmarks.md, "dynaguide bench sim": the nothing-shared rate).
 template <typename Work>
 std::chrono::steady_clock::time_point RunTogether(int threads, const Work& work) {
   const std::vector<int> cpus = AllowedCpus();
