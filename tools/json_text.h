@@ -3,6 +3,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <string>
+#include <vector>
 
 // Helpers for the .cc files that write JSON with nlohmann's library
 // (nlohmann::ordered_json: the keys in the order written). This header
@@ -28,6 +29,12 @@ inline double Significant(double value, int digits) {
   char text[64];
   std::snprintf(text, sizeof text, "%.*g", digits, value);
   return std::strtod(text, nullptr);
+}
+
+// Significant of each value, for a figure stated per thread or per core.
+inline std::vector<double> SignificantEach(std::vector<double> values, int digits) {
+  for (double& value : values) value = Significant(value, digits);
+  return values;
 }
 
 inline double Decimals(double value, int digits) {

@@ -24,9 +24,9 @@ void WriteBenchJson(const std::string& path, const std::vector<std::string>& rec
   const pipeline::MachineInfo machine = pipeline::ReadMachineInfo();
   const RunProvenance run = ReadRunProvenance();  // the load before the probe's own
   MachinePeaks peaks = MeasureMachinePeaks();
-  for (double& gflops : peaks.fma_fp32_gflops) gflops = Significant(gflops, 4);
-  for (double& gb_s : peaks.triad_gb_s) gb_s = Significant(gb_s, 3);
-  for (double& gb_s : peaks.core_load_store_gb_s) gb_s = Significant(gb_s, 3);
+  peaks.fma_fp32_gflops = SignificantEach(peaks.fma_fp32_gflops, 4);
+  peaks.triad_gb_s = SignificantEach(peaks.triad_gb_s, 3);
+  peaks.core_load_store_gb_s = SignificantEach(peaks.core_load_store_gb_s, 3);
   std::printf("host peaks now: FMA fp32");
   for (const double gflops : peaks.fma_fp32_gflops) std::printf(" %.1f", gflops);
   std::printf(" GFLOP/s, triad");

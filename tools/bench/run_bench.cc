@@ -108,8 +108,6 @@ void WriteRunBenchJson(const std::string& path, const std::vector<RunBenchRecord
   std::vector<std::string> texts;
   for (const RunBenchRecord& r : records) {
     const pipeline::RunStatistics& s = r.statistics;
-    nlohmann::json core_load_store = nlohmann::json::array();
-    for (double gb_s : r.core_load_store_gb_s) core_load_store.push_back(Significant(gb_s, 3));
     const nlohmann::ordered_json record = {{"policy", pipeline::PolicyName(r.policy)},
                                            {"threads", r.threads},
                                            {"repeat", r.repeat + 1},
@@ -121,7 +119,7 @@ void WriteRunBenchJson(const std::string& path, const std::vector<RunBenchRecord
                                            {"simulated_frames", r.simulated_frames},
                                            {"host_took_percent", Significant(r.host.per_core_percent, 3)},
                                            {"host_took_any_core_percent", Significant(r.host.any_core_percent, 3)},
-                                           {"core_load_store_gb_s", core_load_store},
+                                           {"core_load_store_gb_s", SignificantEach(r.core_load_store_gb_s, 3)},
                                            {"stages", nlohmann::ordered_json::parse(StageTimingsJson(s))}};
     texts.push_back(JsonText(record, -1));
   }

@@ -585,10 +585,6 @@ std::vector<SimBenchRecord> RunSimBench(const SimBenchOptions& options, bool pro
 void WriteSimBenchJson(const std::string& path, const std::vector<SimBenchRecord>& records) {
   std::vector<std::string> texts;
   for (const SimBenchRecord& r : records) {
-    nlohmann::json working_us = nlohmann::json::array();
-    for (double us : r.working_us_per_step) working_us.push_back(Significant(us, 4));
-    nlohmann::json core_load_store = nlohmann::json::array();
-    for (double gb_s : r.core_load_store_gb_s) core_load_store.push_back(Significant(gb_s, 3));
     const nlohmann::ordered_json record = {{"mesh", r.mesh},
                                            {"mesh_tets", r.mesh_tets},
                                            {"mesh_nodes", r.mesh_nodes},
@@ -601,13 +597,13 @@ void WriteSimBenchJson(const std::string& path, const std::vector<SimBenchRecord
                                            {"speedup_over_1_thread", Significant(r.speedup_over_1_thread, 4)},
                                            {"barrier_ns", Significant(r.barrier_ns, 4)},
                                            {"nothing_shared_tet_steps_per_s", Significant(r.nothing_shared_tet_steps_per_s, 6)},
-                                           {"working_us_per_step", working_us},
+                                           {"working_us_per_step", SignificantEach(r.working_us_per_step, 4)},
                                            {"barrier_us_per_step", Significant(r.barrier_us_per_step, 4)},
                                            {"long_waits_us_per_step", Significant(r.long_waits_us_per_step, 4)},
                                            {"host_took_percent", Significant(r.host.per_core_percent, 3)},
                                            {"host_took_any_core_percent", Significant(r.host.any_core_percent, 3)},
                                            {"host_gaps_per_ms", Significant(r.host.gaps_per_ms, 3)},
-                                           {"core_load_store_gb_s", core_load_store},
+                                           {"core_load_store_gb_s", SignificantEach(r.core_load_store_gb_s, 3)},
                                            {"resident_mb", Significant(r.resident_mb, 4)},
                                            {"realtime_factor", Significant(r.realtime_factor, 6)},
                                            {"dt_s", Significant(r.dt_s, 6)},
