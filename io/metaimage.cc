@@ -259,7 +259,8 @@ void WriteMetaImage(const std::string& mhd_path, const Volume<T>& volume) {
     for (int d = 0; d < 3; ++d) {
       char buffer[32];
       const auto end = std::to_chars(buffer, buffer + sizeof(buffer), v_m[d] * kMmPerM).ptr;
-      text += (d ? " " : "") + std::string(buffer, end);
+      if (d) text += ' ';
+      text.append(buffer, end);
     }
     return text;
   };

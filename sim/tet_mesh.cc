@@ -38,8 +38,11 @@ std::string ElementName(const TetMesh& mesh, int e) {
     return "element " + std::to_string(e);
   }
   const bool has_line = static_cast<int>(mesh.element_lines.size()) == mesh.num_tets() && mesh.element_lines[e] > 0;
-  return mesh.source + (has_line ? ":" + std::to_string(mesh.element_lines[e]) : std::string()) + ", element " +
-         std::to_string(mesh.element_tags[e]);
+  // Appended piece by piece: GCC 12 warns (-Wrestrict, falsely) on a literal
+  // prepended to a temporary string here.
+  std::string name = mesh.source;
+  if (has_line) name.append(":").append(std::to_string(mesh.element_lines[e]));
+  return name.append(", element ").append(std::to_string(mesh.element_tags[e]));
 }
 
 int OrientElements(TetMesh* mesh, Orientation policy) {

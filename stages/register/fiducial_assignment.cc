@@ -7,8 +7,14 @@
 #include <numeric>
 #include <utility>
 
-#include <ceres/ceres.h>
+// GCC 12 sees, falsely, an 8-double AVX-512 load of a 3-vector in
+// Eigen::umeyama's dynamic-size block copy (a path taken only for 8 rows or
+// more). Geometry, umeyama's header, is first included here.
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Warray-bounds"
 #include <Eigen/Geometry>
+#pragma GCC diagnostic pop
+#include <ceres/ceres.h>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core/eigen.hpp>
 
