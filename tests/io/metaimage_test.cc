@@ -157,7 +157,9 @@ TEST_CASE("metaimage: tolerant reader, errors at file:line and key", "[io][unit]
     REQUIRE(twice.where() == mhd + ":11");
     REQUIRE_THAT(twice.problem(), Catch::Contains("DimSize") && Catch::Contains("line 4"));
     std::string bad_spacing = body;
-    bad_spacing.replace(bad_spacing.find("0.75"), 4, "x");
+    const size_t spacing = bad_spacing.find("0.75");
+    REQUIRE(spacing != std::string::npos);
+    bad_spacing.replace(spacing, 4, 1, 'x');
     WriteText(mhd, bad_spacing + "ElementDataFile = metaimage_other.raw\n");
     REQUIRE(ReadError<std::int16_t>(mhd).where() == mhd + ":5");
     WriteText(mhd, "NDims = 3\nElementType = MET_SHORT\nElementDataFile = metaimage_other.raw\n");
