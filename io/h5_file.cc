@@ -16,8 +16,6 @@ namespace {
 
 static_assert(std::is_same_v<hid_t, std::int64_t>, "the headers keep hid_t as std::int64_t");
 
-constexpr const char* kWriteFix = h5::kWriteFix;
-
 using h5::Checked;
 using h5::Handle;
 using h5::kMetadataBytes;

@@ -10,6 +10,7 @@
 
 #include "sim/element_measures.h"
 #include "sim/error.h"
+#include "sim/lane_loop.h"
 #include "sim/tled_kernel.h"
 
 namespace dg::sim {
@@ -50,7 +51,7 @@ T ResolveBlock(const TledModel<T>& model, int b, const T* __restrict D0, const T
   const int32_t* __restrict nodes = model.block_nodes(b);
   const T* __restrict V0 = model.block_volumes(b);
   alignas(64) T ratio[W];
-#pragma GCC ivdep
+  DG_LANE_LOOP
   for (int l = 0; l < W; ++l) {
     const int n0 = 3 * nodes[l], n1 = 3 * nodes[W + l], n2 = 3 * nodes[2 * W + l], n3 = 3 * nodes[3 * W + l];
     const EdgeMatrix<T> D(D0 + l, W, u, n0, n1, n2, n3);
@@ -88,7 +89,7 @@ void ApplyBlock(const TledModel<T>& model, int b, const T* __restrict D0, const 
                 const T* __restrict q, T* __restrict f) {
   constexpr int W = TledModel<T>::kLanes;
   const int32_t* __restrict nodes = model.block_nodes(b);
-#pragma GCC ivdep
+  DG_LANE_LOOP
   for (int l = 0; l < W; ++l) {
     const int n0 = 3 * nodes[l], n1 = 3 * nodes[W + l], n2 = 3 * nodes[2 * W + l], n3 = 3 * nodes[3 * W + l];
     const EdgeMatrix<T> D(D0 + l, W, u, n0, n1, n2, n3);

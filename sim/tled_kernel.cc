@@ -11,6 +11,7 @@
 #include <tbb/partitioner.h>
 
 #include "sim/corner_loads.h"
+#include "sim/lane_loop.h"
 
 namespace dg::sim {
 
@@ -69,7 +70,7 @@ T ElementPass(const TledModel<T>& model, const T* __restrict u, T* __restrict fo
     alignas(64) T corners[kCornersLoaded ? 12 * W : 1];
     if constexpr (kCornersLoaded) LoadCornerDisplacements(nodes, u, corners);
 
-#pragma GCC ivdep
+    DG_LANE_LOOP
     for (int l = 0; l < W; ++l) {
       // Component `axis` of corner c's displacement.
       auto at = [&](int c, int axis) {
