@@ -5,15 +5,38 @@
 
 namespace dg::pipeline {
 
+namespace {
+
+// The value of a "key<TAB>: value" line of /proc/cpuinfo when the key matches
+// exactly ("model" must not match "model name").
+bool ReadField(const std::string& line, const std::string& key, std::string* value) {
+  const std::size_t colon = line.find(':');
+  if (colon == std::string::npos) return false;
+  const std::size_t key_end = line.find_last_not_of(" \t", colon - 1);
+  if (key_end == std::string::npos || line.compare(0, key_end + 1, key) != 0 || key_end + 1 != key.size())
+    return false;
+  const std::size_t start = line.find_first_not_of(' ', colon + 1);
+  *value = start == std::string::npos ? std::string() : line.substr(start);
+  return true;
+}
+
+}  // namespace
+
+std::string CpuModel(std::istream& cpuinfo) {
+  std::string name, family, model;
+  // The first processor's block ends at the first blank line.
+  for (std::string line; std::getline(cpuinfo, line) && !line.empty();) {
+    ReadField(line, "model name", &name) || ReadField(line, "cpu family", &family) ||
+        ReadField(line, "model", &model);
+  }
+  if (family.empty() || model.empty()) return name;
+  return name + " (family " + family + ", model " + model + ")";
+}
+
 MachineInfo ReadMachineInfo() {
   MachineInfo info;
   std::ifstream cpuinfo("/proc/cpuinfo");
-  for (std::string line; std::getline(cpuinfo, line);) {
-    if (line.rfind("model name", 0) == 0) {
-      info.cpu_model = line.substr(line.find(':') + 2);
-      break;
-    }
-  }
+  info.cpu_model = CpuModel(cpuinfo);
   info.logical_cores = static_cast<int>(std::thread::hardware_concurrency());
 #if defined(__clang__)
   info.compiler = __VERSION__;  // e.g. "Debian Clang 14.0.6"
