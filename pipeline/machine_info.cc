@@ -7,17 +7,15 @@ namespace dg::pipeline {
 
 namespace {
 
-// The value of a "key<TAB>: value" line of /proc/cpuinfo when the key matches
-// exactly ("model" must not match "model name").
-bool ReadField(const std::string& line, const std::string& key, std::string* value) {
+// Sets *value from a "key<TAB>: value" line of /proc/cpuinfo whose key is
+// exactly `key` ("model" must not take the "model name" line).
+void ReadField(const std::string& line, const std::string& key, std::string* value) {
   const std::size_t colon = line.find(':');
-  if (colon == std::string::npos) return false;
+  if (colon == std::string::npos || colon == 0) return;
   const std::size_t key_end = line.find_last_not_of(" \t", colon - 1);
-  if (key_end == std::string::npos || line.compare(0, key_end + 1, key) != 0 || key_end + 1 != key.size())
-    return false;
+  if (key_end == std::string::npos || line.compare(0, key_end + 1, key) != 0 || key_end + 1 != key.size()) return;
   const std::size_t start = line.find_first_not_of(' ', colon + 1);
   *value = start == std::string::npos ? std::string() : line.substr(start);
-  return true;
 }
 
 }  // namespace
@@ -26,8 +24,9 @@ std::string CpuModel(std::istream& cpuinfo) {
   std::string name, family, model;
   // The first processor's block ends at the first blank line.
   for (std::string line; std::getline(cpuinfo, line) && !line.empty();) {
-    ReadField(line, "model name", &name) || ReadField(line, "cpu family", &family) ||
-        ReadField(line, "model", &model);
+    ReadField(line, "model name", &name);
+    ReadField(line, "cpu family", &family);
+    ReadField(line, "model", &model);
   }
   if (family.empty() || model.empty()) return name;
   return name + " (family " + family + ", model " + model + ")";
