@@ -1,6 +1,7 @@
 #include "pipeline/machine_info.h"
 
 #include <fstream>
+#include <string_view>
 #include <thread>
 
 namespace dg::pipeline {
@@ -13,7 +14,7 @@ void ReadField(const std::string& line, const std::string& key, std::string* val
   const std::size_t colon = line.find(':');
   if (colon == std::string::npos || colon == 0) return;
   const std::size_t key_end = line.find_last_not_of(" \t", colon - 1);
-  if (key_end == std::string::npos || line.compare(0, key_end + 1, key) != 0 || key_end + 1 != key.size()) return;
+  if (key_end == std::string::npos || std::string_view(line).substr(0, key_end + 1) != key) return;
   const std::size_t start = line.find_first_not_of(' ', colon + 1);
   *value = start == std::string::npos ? std::string() : line.substr(start);
 }
