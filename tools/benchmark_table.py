@@ -140,10 +140,15 @@ def spread(r):
 
 
 def nothing_shared(r):
-    """ '; nothing shared: N M', the machine's rate for two independent one-thread
-    solvers stepped at once in the same run, when recorded."""
+    """ '; nothing shared: N M (each core alone: A / B M)', the machine's rate for
+    two independent one-thread solvers stepped at once in the same run, and each
+    one's rate to its own end, when recorded."""
     rate = r.get("nothing_shared_tet_steps_per_s")
-    return f"; nothing shared: {mega(rate)} M" if rate else ""
+    if not rate:
+        return ""
+    each = r.get("each_core_alone_tet_steps_per_s")
+    alone = f" (each core alone: {' / '.join(mega(x) for x in each)} M)" if each else ""
+    return f"; nothing shared: {mega(rate)} M{alone}"
 
 
 def core_speeds(r):

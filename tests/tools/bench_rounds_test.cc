@@ -74,6 +74,12 @@ TEST_CASE("bench sim: every thread count's record from the same rounds, with its
   CHECK(two.speedup_over_1_thread == Approx(two.tet_steps_per_s / one.tet_steps_per_s));
   CHECK(two.barrier_ns > 0);
   CHECK(two.nothing_shared_tet_steps_per_s > 0);
+  // Each one-thread solver's own rate: in every repeat it ends no later than
+  // the last, whose end times their rate together, so its median is at least
+  // half of theirs (an order statistic of larger values).
+  CHECK(one.each_core_alone_tet_steps_per_s.empty());
+  REQUIRE(two.each_core_alone_tet_steps_per_s.size() == 2);
+  for (double rate : two.each_core_alone_tet_steps_per_s) CHECK(rate >= two.nothing_shared_tet_steps_per_s / 2);
   // Each worker that joined (the helper may not on a busy machine) worked, and
   // the long waits are part of the time at the barrier.
   CHECK(two.working_us_per_step.size() >= 1);

@@ -328,22 +328,35 @@ std::unique_ptr<sim::TledSolver<T>> MakeForwardSolver(const BenchProblem& proble
 }
 
 // Repeats of `solvers`, all stepped at once, each on a thread and a core of
-// its own when there are several (RunTogether).
+// its own when there are several (RunTogether). With several, `each_rates`
+// gets, per solver, its tet-steps per second over its own time in each call
+// of the timed repeats (cleared after the warm-up).
 template <typename T>
 TimedConfiguration ForwardConfiguration(const std::vector<std::unique_ptr<sim::TledSolver<T>>>& solvers,
                                         const BenchProblem& problem, const std::vector<double>& targets,
-                                        const SimBenchOptions& options) {
+                                        const SimBenchOptions& options,
+                                        std::vector<std::vector<double>>* each_rates = nullptr) {
   const int substeps = solvers.front()->substeps_per_step();
   TimedConfiguration timed;
   timed.steps_per_repeat = StepsPerRepeat(options) * substeps;
   timed.work_per_step = double(solvers.size()) * problem.mesh.num_tets();
-  timed.advance = [&solvers, &targets, substeps](int steps) {
+  const double tets = problem.mesh.num_tets();
+  if (each_rates) {
+    each_rates->assign(solvers.size(), {});
+    timed.after_warm_up = [each_rates] {
+      for (std::vector<double>& rates : *each_rates) rates.clear();
+    };
+  }
+  timed.advance = [&solvers, &targets, substeps, tets, each_rates](int steps) {
     if (solvers.size() == 1) {
       solvers.front()->Advance(steps / substeps, targets);
       return;
     }
-    RunTogether(static_cast<int>(solvers.size()), [&](int t, std::chrono::steady_clock::time_point) {
+    RunTogether(static_cast<int>(solvers.size()), [&](int t, std::chrono::steady_clock::time_point start) {
       solvers[t]->Advance(steps / substeps, targets);
+      if (!each_rates) return;
+      const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+      (*each_rates)[t].push_back(double(steps) * tets / seconds);  // this thread's own list
     });
   };
   return timed;
@@ -364,6 +377,7 @@ std::vector<SimBenchRecord> MeasureForward(const std::vector<BenchProblem>& grou
   struct Measured {
     std::vector<double> targets, resident_mb;
     std::vector<Solvers> teams, apart;
+    std::vector<std::vector<std::vector<double>>> apart_each_rates;  // per thread count, per solver
     std::vector<size_t> team_config, apart_config;  // indices into `timed`
   };
   std::vector<Measured> measured(group.size());
@@ -382,6 +396,7 @@ std::vector<SimBenchRecord> MeasureForward(const std::vector<BenchProblem>& grou
     Measured& m = measured[p];
     m.teams.resize(counts);
     m.apart.resize(counts);
+    m.apart_each_rates.resize(counts);
     m.apart_config.assign(counts, 0);
     for (size_t k = 0; k < counts; ++k) {
       m.teams[k].push_back(MakeForwardSolver<T>(problem, TeamSize(options.threads[k]), options));
@@ -391,7 +406,7 @@ std::vector<SimBenchRecord> MeasureForward(const std::vector<BenchProblem>& grou
       if (options.threads[k] < 2) continue;
       for (int t = 0; t < options.threads[k]; ++t) m.apart[k].push_back(MakeForwardSolver<T>(problem, 1, options));
       m.apart_config[k] = timed.size();
-      timed.push_back(ForwardConfiguration<T>(m.apart[k], problem, m.targets, options));
+      timed.push_back(ForwardConfiguration<T>(m.apart[k], problem, m.targets, options, &m.apart_each_rates[k]));
     }
   }
   MachineSamples machine(options.threads);
@@ -410,6 +425,10 @@ std::vector<SimBenchRecord> MeasureForward(const std::vector<BenchProblem>& grou
       record.core_load_store_gb_s = machine.CoreLoadStore();
       if (options.threads[k] > 1) {
         record.nothing_shared_tet_steps_per_s = MedianOfSorted(timed[m.apart_config[k]].rates);
+        for (std::vector<double> rates : m.apart_each_rates[k]) {
+          std::sort(rates.begin(), rates.end());
+          record.each_core_alone_tet_steps_per_s.push_back(MedianOfSorted(rates));
+        }
       }
       RecordTeamTiming(m.teams[k].front()->team(), &record);
       records.push_back(record);
@@ -597,6 +616,7 @@ void WriteSimBenchJson(const std::string& path, const std::vector<SimBenchRecord
                                            {"speedup_over_1_thread", Significant(r.speedup_over_1_thread, 4)},
                                            {"barrier_ns", Significant(r.barrier_ns, 4)},
                                            {"nothing_shared_tet_steps_per_s", Significant(r.nothing_shared_tet_steps_per_s, 6)},
+                                           {"each_core_alone_tet_steps_per_s", SignificantEach(r.each_core_alone_tet_steps_per_s, 6)},
                                            {"working_us_per_step", SignificantEach(r.working_us_per_step, 4)},
                                            {"barrier_us_per_step", Significant(r.barrier_us_per_step, 4)},
                                            {"long_waits_us_per_step", Significant(r.long_waits_us_per_step, 4)},
@@ -622,12 +642,13 @@ void WriteSimBenchJson(const std::string& path, const std::vector<SimBenchRecord
 std::string SimBenchTable(const std::vector<SimBenchRecord>& records) {
   std::string table =
       "| mode | mesh | tets | nodes | precision | threads | M tet-steps/s (median) | min-max | x 1 thread | "
-      "barrier ns | nothing shared M | work us/step | at barrier us/step (long waits) | host took % (any core) | "
+      "barrier ns | nothing shared M (each core alone) | work us/step | at barrier us/step (long waits) | host took % (any core) | "
       "cores' L1 load/store GB/s | "
       "resident MB | real-time factor | concurrent gain | inverse every | motion error um | dt_cr ms |\n"
       "|---|---|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
   for (const SimBenchRecord& r : records) {
-    char gain[16] = "-", speedup[16] = "-", barrier[16] = "-", interval[16] = "-", error[16] = "-", apart[16] = "-";
+    char gain[16] = "-", speedup[16] = "-", barrier[16] = "-", interval[16] = "-", error[16] = "-";
+    char apart[64] = "-";  // together, then each core alone: "166.0 (92.1/83.0)"
     char at_barrier[32] = "-", host[32] = "-";
     char working[64] = "-";  // each worker's, "86.2/88.9"
     for (size_t w = 0; w < r.working_us_per_step.size(); ++w) {
@@ -638,7 +659,14 @@ std::string SimBenchTable(const std::vector<SimBenchRecord>& records) {
       std::snprintf(at_barrier, sizeof at_barrier, "%.1f (%.1f)", r.barrier_us_per_step, r.long_waits_us_per_step);
     }
     if (r.threads > 1) std::snprintf(host, sizeof host, "%.1f (%.1f)", r.host.per_core_percent, r.host.any_core_percent);
-    if (r.nothing_shared_tet_steps_per_s > 0) std::snprintf(apart, sizeof apart, "%.1f", r.nothing_shared_tet_steps_per_s / 1e6);
+    if (r.nothing_shared_tet_steps_per_s > 0) {
+      int used = std::snprintf(apart, sizeof apart, "%.1f", r.nothing_shared_tet_steps_per_s / 1e6);
+      const std::vector<double>& each = r.each_core_alone_tet_steps_per_s;
+      for (size_t t = 0; t < each.size() && used < int(sizeof apart); ++t) {
+        used += std::snprintf(apart + used, sizeof apart - used, "%s%.1f%s", t == 0 ? " (" : "/", each[t] / 1e6,
+                              t + 1 == each.size() ? ")" : "");
+      }
+    }
     if (r.concurrent_gain > 0) std::snprintf(gain, sizeof gain, "%.2f", r.concurrent_gain);
     if (r.inverse_interval_steps > 0) {
       std::snprintf(interval, sizeof interval, "%d", r.inverse_interval_steps);

@@ -66,6 +66,12 @@ struct SimBenchRecord {
   // tet-steps per second together: the machine's rate for this kernel on
   // that many cores with nothing shared, timed in the same rounds.
   double nothing_shared_tet_steps_per_s = 0;
+  // The same one-thread solvers, each timed to its own end (else empty): one
+  // rate a core, the median over the repeats. Their rate together is bound by
+  // the slowest; a team that balances its work is bound by their sum. When
+  // they differ, one thread's rate (on whichever core it ran) and the second
+  // core's share of two differ for this kernel, measured in the same rounds.
+  std::vector<double> each_core_alone_tet_steps_per_s;
   // forward on 2 or more threads only (else empty and 0): where the solver's
   // workers spent a step of the timed repeats (sim::StepTeam::Timing), us:
   // each worker's work, the workers' mean time at the barrier (waiting for
