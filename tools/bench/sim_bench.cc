@@ -6,7 +6,6 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <cstring>
 #include <fstream>
 #include <limits>
 #include <map>
@@ -36,6 +35,13 @@ namespace dg::tools {
 namespace {
 
 constexpr double kPressDown_m = 1e-3;
+
+// Values scaled and joined with '/', one decimal each: "86.2/88.9".
+std::string SlashJoined(const std::vector<double>& values, double scale) {
+  std::string text;
+  for (size_t i = 0; i < values.size(); ++i) text += Printed("%s%.1f", i == 0 ? "" : "/", values[i] * scale);
+  return text;
+}
 
 struct BenchProblem {
   std::string name;
@@ -648,24 +654,16 @@ std::string SimBenchTable(const std::vector<SimBenchRecord>& records) {
       "|---|---|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
   for (const SimBenchRecord& r : records) {
     char gain[16] = "-", speedup[16] = "-", barrier[16] = "-", interval[16] = "-", error[16] = "-";
-    char apart[64] = "-";  // together, then each core alone: "166.0 (92.1/83.0)"
     char at_barrier[32] = "-", host[32] = "-";
-    char working[64] = "-";  // each worker's, "86.2/88.9"
-    for (size_t w = 0; w < r.working_us_per_step.size(); ++w) {
-      const size_t used = w == 0 ? 0 : std::strlen(working);
-      std::snprintf(working + used, sizeof working - used, "%s%.1f", w == 0 ? "" : "/", r.working_us_per_step[w]);
-    }
+    const std::string working = r.working_us_per_step.empty() ? "-" : SlashJoined(r.working_us_per_step, 1);
+    std::string apart = "-";  // together, then each core alone: "166.0 (92.1/83.0)"
     if (!r.working_us_per_step.empty()) {
       std::snprintf(at_barrier, sizeof at_barrier, "%.1f (%.1f)", r.barrier_us_per_step, r.long_waits_us_per_step);
     }
     if (r.threads > 1) std::snprintf(host, sizeof host, "%.1f (%.1f)", r.host.per_core_percent, r.host.any_core_percent);
     if (r.nothing_shared_tet_steps_per_s > 0) {
-      int used = std::snprintf(apart, sizeof apart, "%.1f", r.nothing_shared_tet_steps_per_s / 1e6);
-      const std::vector<double>& each = r.each_core_alone_tet_steps_per_s;
-      for (size_t t = 0; t < each.size() && used < int(sizeof apart); ++t) {
-        used += std::snprintf(apart + used, sizeof apart - used, "%s%.1f%s", t == 0 ? " (" : "/", each[t] / 1e6,
-                              t + 1 == each.size() ? ")" : "");
-      }
+      apart = Printed("%.1f", r.nothing_shared_tet_steps_per_s / 1e6);
+      if (!r.each_core_alone_tet_steps_per_s.empty()) apart += " (" + SlashJoined(r.each_core_alone_tet_steps_per_s, 1e-6) + ")";
     }
     if (r.concurrent_gain > 0) std::snprintf(gain, sizeof gain, "%.2f", r.concurrent_gain);
     if (r.inverse_interval_steps > 0) {
@@ -677,7 +675,7 @@ std::string SimBenchTable(const std::vector<SimBenchRecord>& records) {
     table += Printed("| %s | %s | %d | %d | %s | %d | %.1f | %.1f-%.1f | %s | %s | %s | %s | %s | %s | %s | %.0f | %.2f | %s | %s | %s | %.3f |\n",
                      r.mode.c_str(), r.mesh.c_str(), r.mesh_tets, r.mesh_nodes, sim::ToString(r.precision).c_str(), r.threads,
                      r.tet_steps_per_s / 1e6, r.tet_steps_per_s_min / 1e6, r.tet_steps_per_s_max / 1e6, speedup,
-                     barrier, apart, working, at_barrier, host, CoreLoadStoreText(r.core_load_store_gb_s).c_str(), r.resident_mb, r.realtime_factor, gain, interval, error, r.dt_critical_s * 1e3);
+                     barrier, apart.c_str(), working.c_str(), at_barrier, host, CoreLoadStoreText(r.core_load_store_gb_s).c_str(), r.resident_mb, r.realtime_factor, gain, interval, error, r.dt_critical_s * 1e3);
   }
   return table;
 }
