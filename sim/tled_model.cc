@@ -189,24 +189,17 @@ TledModel<T>::TledModel(const TetMesh& mesh, const Material& material, int parts
   }
   // The lines that cross between parts: each part's corners on another's nodes.
   halo_lines_.resize(split.elements.size());
-  shared_lines_.resize(split.elements.size());
   for (size_t slot = 0; slot < slots; ++slot) {
     if (slot_element[slot] < 0) continue;
     const int w = part_of_slot[slot];
     for (int c = 0; c < 4; ++c) {
       const int a = layout.tets(c, slot_element[slot]);
-      if (owns(slot, a)) continue;
-      const int owner = static_cast<int>(std::upper_bound(part_node_begin_.begin(), part_node_begin_.end(), a) -
-                                         part_node_begin_.begin()) - 1;
-      AddLinesOfNode<T>(a, &halo_lines_[w]);
-      AddLinesOfNode<T>(a, &shared_lines_[owner]);
+      if (!owns(slot, a)) AddLinesOfNode<T>(a, &halo_lines_[w]);
     }
   }
-  for (auto* lists : {&halo_lines_, &shared_lines_}) {
-    for (std::vector<int32_t>& lines : *lists) {
-      std::sort(lines.begin(), lines.end());
-      lines.erase(std::unique(lines.begin(), lines.end()), lines.end());
-    }
+  for (std::vector<int32_t>& lines : halo_lines_) {
+    std::sort(lines.begin(), lines.end());
+    lines.erase(std::unique(lines.begin(), lines.end()), lines.end());
   }
   for (int a = 0; a < layout.num_nodes(); ++a) {
     if (mass_kg_[a] <= 0) {

@@ -108,13 +108,11 @@ class TledModel {
   int chunk_block_begin(int c) const { return chunk_block_begin_[c]; }
 
   // The 64-byte lines of a per-node array (3 values of T a node, 64-byte
-  // aligned, layout order) that cross between cores each step when worker w
-  // runs part w, each as the offset of its first value: halo_lines(w) hold
-  // nodes that part w's elements read and another part owns, shared_lines(w)
-  // part w's nodes that another part's elements read (docs/solver.md,
-  // "Subdomains"). Empty for a model of one part.
+  // aligned, layout order) that hold nodes part w's elements read and
+  // another part owns, each as the offset of its first value, ascending
+  // (docs/solver.md, "Subdomains"). A part's node range starts on a line, so
+  // each line has one owner. Empty for a model of one part.
   std::span<const int32_t> halo_lines(int w) const { return halo_lines_[w]; }
-  std::span<const int32_t> shared_lines(int w) const { return shared_lines_[w]; }
 
   // Size of the element-major force array the kernel writes: [block][corner][xyz][lane].
   size_t force_array_size() const { return size_t(num_blocks_) * 12 * kLanes; }
@@ -140,7 +138,7 @@ class TledModel {
   std::vector<int32_t> gather_begin_;
   std::vector<int32_t> gather_offsets_;
   std::vector<double> mass_kg_;
-  std::vector<std::vector<int32_t>> halo_lines_, shared_lines_;  // per part
+  std::vector<std::vector<int32_t>> halo_lines_;  // per part
 };
 
 // Per-node values (3 per node) from `from` into `to`, node k going to node destination[k].

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <limits>
 
 #include <Eigen/LU>
@@ -66,6 +67,11 @@ TledSolver<T>::TledSolver(std::shared_ptr<const TledModel<T>> model, BoundaryCon
                                        options_.launch_helper);
   }
   homes_ = PartitionChunks(*model_, team_->size());
+  levels_.resize(model_->parts());
+  for (int p = 0; p < model_->parts(); ++p) {
+    element_chunk_part_.insert(element_chunk_part_.end(),
+                               model_->part_chunk_begin()[p + 1] - model_->part_chunk_begin()[p], p);
+  }
   if (const std::string problem = options_.Validate(); !problem.empty()) {
     throw Error("invalid solver options: " + problem, "solver options", "correct the option");
   }
@@ -141,9 +147,11 @@ TledSolver<T>::TledSolver(std::shared_ptr<const TledModel<T>> model, BoundaryCon
   }
   for (int i = 0; i < 3; ++i) gravity_term_[i] = static_cast<T>(A * dt * dt * options_.gravity_m_s2[i]);
 
-  u_prev_.assign(n_dofs, T(0));
-  u_.assign(n_dofs, T(0));
-  u_next_.assign(n_dofs, T(0));
+  for (PartLevels& part : levels_) {
+    part.u_prev.assign(n_dofs, T(0));
+    part.u.assign(n_dofs, T(0));
+    part.u_next.assign(n_dofs, T(0));
+  }
   element_forces_.assign(model_->force_array_size(), T(0));
   internal_force_.assign(n_dofs, T(0));
   external_force_.assign(n_dofs, T(0));
@@ -155,6 +163,7 @@ TledSolver<T>::TledSolver(std::shared_ptr<const TledModel<T>> model, BoundaryCon
     chunk_constrained_begin_.push_back(static_cast<int>(
         std::lower_bound(constrained_dofs_.begin(), constrained_dofs_.end(), first_dof) - constrained_dofs_.begin()));
   }
+  ListCutCopies();
   energy_history_.assign(2 * options_.energy_window_steps + 1, 0.0);
 }
 
@@ -176,9 +185,10 @@ void TledSolver<T>::SetExternalForces(std::span<const double> forces_n) {
 
 template <typename T>
 void TledSolver<T>::SetState(std::span<const double> u_m, std::span<const double> v_m_s) {
-  if (u_m.size() != u_.size() || v_m_s.size() != u_.size()) {
+  const size_t n_dofs = 3 * size_t(model_->num_nodes());
+  if (u_m.size() != n_dofs || v_m_s.size() != n_dofs) {
     throw Error("initial state has " + std::to_string(u_m.size()) + " displacements and " +
-                    std::to_string(v_m_s.size()) + " velocities, expected " + std::to_string(u_.size()),
+                    std::to_string(v_m_s.size()) + " velocities, expected " + std::to_string(n_dofs),
                 "initial state", "give 3 components per node");
   }
   const double dt = internal_dt_s();
@@ -189,8 +199,11 @@ void TledSolver<T>::SetState(std::span<const double> u_m, std::span<const double
     }
     before[i] = u_m[i] - v_m_s[i] * dt;
   }
-  model_->ToLayout(u_m, std::span<T>(u_));
-  model_->ToLayout(std::span<const double>(before), std::span<T>(u_prev_));
+  // Every part holds the whole state: its own nodes and its halo.
+  for (PartLevels& part : levels_) {
+    model_->ToLayout(u_m, std::span<T>(part.u));
+    model_->ToLayout(std::span<const double>(before), std::span<T>(part.u_prev));
+  }
   ++state_version_;
 }
 
@@ -211,7 +224,7 @@ void TledSolver<T>::SetTargets(std::span<const double> targets_m) {
     }
   }
   for (size_t k = 0; k < targets_m.size(); ++k) {
-    target_begin_[k] = u_[prescribed_layout_dofs_[k]];
+    target_begin_[k] = OwnerOf(prescribed_layout_dofs_[k]).u[prescribed_layout_dofs_[k]];
     target_end_[k] = targets_m[k];
   }
 }
@@ -253,28 +266,36 @@ void TledSolver<T>::RequestCutLines(int worker, int chunk) const {
   // A slice of each list before each of the worker's first chunks: asked for
   // all at once, some hundred lines at the far latency held up the pass's
   // start (docs/solver.md, "Subdomains").
-  auto part_of = [&](std::span<const int32_t> lines) {
+  auto part_of = [&](auto lines) {
     return lines.subspan(lines.size() * slice / slices,
                          lines.size() * (slice + 1) / slices - lines.size() * slice / slices);
   };
-  // The other cores wrote these displacements at the end of the last step;
-  // the part's halo, at the end of its element pass, reads them. Asked for
-  // now, they cross while the interior is computed.
-  for (int32_t line : part_of(model_->halo_lines(worker))) __builtin_prefetch(u_.data() + line, 0, 3);
-  // The other cores read these lines of the next state's buffer two steps
-  // ago; taking them back for writing now keeps the node pass's stores from
-  // waiting on the invalidations. Nobody reads that buffer during this step.
-  for (int32_t line : part_of(model_->shared_lines(worker))) __builtin_prefetch(u_next_.data() + line, 1, 3);
+  // The other cores copied these displacements into the part's level at the
+  // end of the last step; the part's halo, at the end of its element pass,
+  // reads them. Asked for now, they cross while the interior is computed.
+  const T* u = levels_[worker].u.data();
+  for (int32_t line : part_of(model_->halo_lines(worker))) __builtin_prefetch(u + line, 0, 3);
+  // The other parts read these lines of their next level two steps ago; taking
+  // them for writing now keeps the node pass's copies from waiting on the
+  // invalidations. Nobody reads that level during this step.
+  const int first_node_chunk = model_->part_node_begin()[worker] / kNodesPerChunk;
+  const int end_node_chunk = model_->part_node_begin()[worker + 1] / kNodesPerChunk;
+  const std::span<const CutCopy> copies(cut_copies_.data() + chunk_copies_begin_[first_node_chunk],
+                                        cut_copies_.data() + chunk_copies_begin_[end_node_chunk]);
+  for (const CutCopy& copy : part_of(copies)) {
+    __builtin_prefetch(levels_[copy.part].u_next.data() + copy.offset, 1, 3);
+  }
 }
 
 template <typename T>
 void TledSolver<T>::ElementChunk(int chunk) {
   // Forces (less the element loads) of every element at U.
   const int begin = model_->chunk_block_begin(chunk), end = model_->chunk_block_begin(chunk + 1);
+  const T* u = levels_[element_chunk_part_[chunk]].u.data();
   chunk_min_J_[chunk] =
       element_loads_.first
-          ? ComputeElementForcesLessLoads(*model_, u_.data(), element_loads_, element_forces_.data(), begin, end)
-          : ComputeElementForces(*model_, u_.data(), element_forces_.data(), begin, end);
+          ? ComputeElementForcesLessLoads(*model_, u, element_loads_, element_forces_.data(), begin, end)
+          : ComputeElementForces(*model_, u, element_forces_.data(), begin, end);
 }
 
 template <typename T>
@@ -284,6 +305,10 @@ void TledSolver<T>::NodeChunk(int chunk, double fraction_end, const T* gathered)
   const TledModel<T>& model = *model_;
   const int begin = chunk * kNodesPerChunk;
   const int end = std::min(begin + kNodesPerChunk, model.num_nodes());
+  PartLevels& part = levels_[node_chunk_part_[chunk]];
+  const T* u = part.u.data();
+  const T* u_prev = part.u_prev.data();
+  T* u_next = part.u_next.data();
   T own[3 * kNodesPerChunk];
   gathered = ChunkNodalForces(model, element_forces_.data(), begin, end, gathered, own);
   double twice_kinetic = 0;
@@ -293,10 +318,10 @@ void TledSolver<T>::NodeChunk(int chunk, double fraction_end, const T* gathered)
     for (int i = 0; i < 3; ++i) {
       const int dof = 3 * a + i;
       internal_force_[dof] = f[i];
-      const T next = u_[dof] + force_gain_[a] * (external_force_[dof] - f[i]) + gravity_term_[i] +
-                     increment_decay_ * (u_[dof] - u_prev_[dof]);
-      u_next_[dof] = next;
-      const T v = next - u_prev_[dof];
+      const T next = u[dof] + force_gain_[a] * (external_force_[dof] - f[i]) + gravity_term_[i] +
+                     increment_decay_ * (u[dof] - u_prev[dof]);
+      u_next[dof] = next;
+      const T v = next - u_prev[dof];
       m_v2 += free_mass_[dof] * v * v;
     }
     twice_kinetic += m_v2;
@@ -313,16 +338,28 @@ void TledSolver<T>::NodeChunk(int chunk, double fraction_end, const T* gathered)
     const int kind = dof_kind_[dof];
     const double next =
         kind == -2 ? 0.0 : target_begin_[kind] + fraction_end * (target_end_[kind] - target_begin_[kind]);
-    u_next_[dof] = static_cast<T>(next);
-    const double acceleration = (next - 2.0 * u_[dof] + u_prev_[dof]) * inv_dt2;
-    const double velocity = (next - u_prev_[dof]) * inv_2dt;
+    u_next[dof] = static_cast<T>(next);
+    const double acceleration = (next - 2.0 * u[dof] + u_prev[dof]) * inv_dt2;
+    const double velocity = (next - u_prev[dof]) * inv_2dt;
     const int a = dof / 3;
     reaction_[dof] = static_cast<T>(mass[a] * (acceleration + alpha * velocity - options_.gravity_m_s2[dof % 3]) +
                                     internal_force_[dof] - external_force_[dof]);
-    const double v = next - u_prev_[dof];
+    const double v = next - u_prev[dof];
     twice_kinetic += mass[a] * v * v;
   }
   chunk_kinetic_[chunk] = twice_kinetic;
+  // The chunk's lines other parts read, now final, into their next levels.
+  // A whole line is one fixed-size copy (a register), not a call.
+  const int values = static_cast<int>(part.u_next.size());
+  for (int k = chunk_copies_begin_[chunk]; k < chunk_copies_begin_[chunk + 1]; ++k) {
+    const CutCopy& copy = cut_copies_[k];
+    T* to = levels_[copy.part].u_next.data() + copy.offset;
+    if (copy.offset + kLineValues <= values) {
+      std::memcpy(to, u_next + copy.offset, 64);
+    } else {
+      std::copy(u_next + copy.offset, u_next + values, to);
+    }
+  }
 }
 
 template <typename T>
@@ -330,8 +367,10 @@ void TledSolver<T>::FinishStep() {
   const double inv_2dt = 0.5 / internal_dt_s();
   kinetic_energy_j_ = 0;
   for (double k : chunk_kinetic_) kinetic_energy_j_ += 0.5 * inv_2dt * inv_2dt * k;
-  std::swap(u_prev_, u_);
-  std::swap(u_, u_next_);
+  for (PartLevels& part : levels_) {
+    std::swap(part.u_prev, part.u);
+    std::swap(part.u, part.u_next);
+  }
   ++internal_steps_;
   ++state_version_;
 }
@@ -346,12 +385,13 @@ void TledSolver<T>::CheckStep() {
   const bool blowing_up = EnergyBlowingUp();
   if (!std::isfinite(kinetic_energy_j_) || blowing_up) {
     // Name the node moving fastest: where the instability (or the bad value) sits.
+    const std::vector<T> u = LevelInLayoutOrder(&PartLevels::u), u_prev = LevelInLayoutOrder(&PartLevels::u_prev);
     int worst = 0;
     double worst_speed = -1;
     for (int a = 0; a < model_->num_nodes(); ++a) {
       double speed = 0;
       for (int i = 0; i < 3; ++i) {
-        const double v = double(u_[3 * a + i]) - double(u_prev_[3 * a + i]);
+        const double v = double(u[3 * a + i]) - double(u_prev[3 * a + i]);
         speed += v * v;
       }
       if (!std::isfinite(speed)) speed = std::numeric_limits<double>::infinity();
@@ -374,8 +414,8 @@ void TledSolver<T>::CheckStep() {
                 "reduce dt below " + Milliseconds(safety_ * stability_.dt_critical_s) +
                     " (" + stability_.Describe() + "), or check the loads for NaN");
   }
-  // The forces that reported it were computed at the previous level, now in u_prev_.
-  if (!(min_J_ > 0)) ThrowInversion(u_prev_.data(), internal_steps_ - 1);
+  // The forces that reported it were computed at the level now the previous one.
+  if (!(min_J_ > 0)) ThrowInversion(LevelInLayoutOrder(&PartLevels::u_prev).data(), internal_steps_ - 1);
 }
 
 template <typename T>
@@ -393,8 +433,9 @@ bool TledSolver<T>::EnergyBlowingUp() const {
 template <typename T>
 void TledSolver<T>::CheckCurrentState() const {
   const TetMesh& mesh = model_->layout_mesh();
+  const std::vector<T> u = LevelInLayoutOrder(&PartLevels::u);
   for (int e = 0; e < mesh.num_tets(); ++e) {
-    if (!(DeformationGradient(mesh, e, u_.data()).determinant() > 0)) ThrowInversion(u_.data(), internal_steps_);
+    if (!(DeformationGradient(mesh, e, u.data()).determinant() > 0)) ThrowInversion(u.data(), internal_steps_);
   }
 }
 
@@ -427,6 +468,59 @@ void TledSolver<T>::ThrowInversion(const T* u, long long step) const {
   throw Error("inverted element", where,
               "the imposed deformation crushes the mesh: reduce the prescribed displacement or load, refine "
               "the mesh there, or check the boundary conditions");
+}
+
+template <typename T>
+void TledSolver<T>::ListCutCopies() {
+  // Part p's halo lines are the lines it copies from their owners; listed
+  // by the node chunk that writes them, so each is copied once it is final.
+  // A node chunk fills whole lines, so no line has two writers.
+  static_assert(3 * kNodesPerChunk % kLineValues == 0);
+  const std::span<const int> node_begin = model_->part_node_begin();
+  std::vector<std::vector<CutCopy>> per_chunk(node_chunks());
+  for (int p = 0; p < model_->parts(); ++p) {
+    const int chunks = (node_begin[p + 1] - node_begin[p] + kNodesPerChunk - 1) / kNodesPerChunk;
+    node_chunk_part_.insert(node_chunk_part_.end(), chunks, p);
+    for (int32_t line : model_->halo_lines(p)) per_chunk[line / 3 / kNodesPerChunk].push_back({p, line});
+  }
+  chunk_copies_begin_.push_back(0);
+  for (const std::vector<CutCopy>& copies : per_chunk) {
+    cut_copies_.insert(cut_copies_.end(), copies.begin(), copies.end());
+    chunk_copies_begin_.push_back(static_cast<int>(cut_copies_.size()));
+  }
+}
+
+template <typename T>
+const typename TledSolver<T>::PartLevels& TledSolver<T>::OwnerOf(int layout_dof) const {
+  return levels_[node_chunk_part_[layout_dof / 3 / kNodesPerChunk]];
+}
+
+template <typename T>
+std::vector<T> TledSolver<T>::LevelInLayoutOrder(Level level) const {
+  std::vector<T> values(3 * size_t(model_->num_nodes()));
+  const std::span<const int> node_begin = model_->part_node_begin();
+  for (int p = 0; p < model_->parts(); ++p) {
+    const AlignedVector<T>& own = levels_[p].*level;
+    std::copy(own.begin() + 3 * node_begin[p], own.begin() + 3 * node_begin[p + 1],
+              values.begin() + 3 * node_begin[p]);
+  }
+  return values;
+}
+
+template <typename T>
+std::span<const T> TledSolver<T>::LevelInMeshOrder(Level level, MeshOrderView& view) const {
+  if (view.version != state_version_) {
+    view.values.resize(3 * size_t(model_->num_nodes()));
+    const std::span<const int> node_begin = model_->part_node_begin();
+    for (int p = 0; p < model_->parts(); ++p) {
+      const AlignedVector<T>& own = levels_[p].*level;
+      for (int a = node_begin[p]; a < node_begin[p + 1]; ++a) {
+        for (int i = 0; i < 3; ++i) view.values[3 * size_t(model_->mesh_node(a)) + i] = own[3 * a + i];
+      }
+    }
+    view.version = state_version_;
+  }
+  return view.values;
 }
 
 template <typename T>

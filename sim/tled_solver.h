@@ -119,7 +119,7 @@ class TledSolver {
   // first asked after a change, so they are not to be called from two threads
   // at once, and a span lasts until the state changes.
   // Current displacement U, metres.
-  std::span<const T> displacement() const { return InMeshOrder(u_, displacement_view_); }
+  std::span<const T> displacement() const { return LevelInMeshOrder(&PartLevels::u, displacement_view_); }
   Eigen::Matrix3Xd DisplacementMatrix() const;
   // A step checks the state it starts from, so the state after the last step
   // is checked by the next one. Before that state goes to an output: throws
@@ -128,7 +128,7 @@ class TledSolver {
   void CheckCurrentState() const;
   // Displacement U- of the step before, metres: with displacement(), the
   // whole state, e.g. to carry it into a solver with other boundary conditions.
-  std::span<const T> previous_displacement() const { return InMeshOrder(u_prev_, previous_view_); }
+  std::span<const T> previous_displacement() const { return LevelInMeshOrder(&PartLevels::u_prev, previous_view_); }
   // Internal force F(U) of the last step less the element loads, newtons.
   std::span<const T> internal_forces() const { return InMeshOrder(internal_force_, internal_force_view_); }
   // Force each constrained dof's support exerts on the body at the last step,
@@ -154,6 +154,29 @@ class TledSolver {
   std::span<const T> InMeshOrder(const Layout& layout, MeshOrderView& view) const;
   int LayoutDof(int dof) const { return 3 * model_->layout_node(dof / 3) + dof % 3; }
 
+  // The displacements of each model part, in arrays of its own (docs/solver.md,
+  // "Subdomains"): three time levels over all layout dofs, of which the part
+  // writes its own nodes' and reads its own and its halo's. Each node chunk
+  // copies the lines of its nodes that another part reads into that part's
+  // next level, so the barrier ending the step publishes them; no line of a
+  // part's arrays is written by two cores.
+  struct PartLevels {
+    AlignedVector<T> u_prev, u, u_next;
+  };
+  using Level = AlignedVector<T> PartLevels::*;
+  static constexpr int kLineValues = static_cast<int>(64 / sizeof(T));
+  // A line of part `part`'s next level that a node chunk copies there from its own.
+  struct CutCopy {
+    int part;
+    int offset;  // of the line's first value
+  };
+  // A time level, each node's value from the part that owns it.
+  std::span<const T> LevelInMeshOrder(Level level, MeshOrderView& view) const;
+  std::vector<T> LevelInLayoutOrder(Level level) const;
+  const PartLevels& OwnerOf(int layout_dof) const;
+  // Lists the lines each node chunk copies into other parts (cut_copies_).
+  void ListCutCopies();
+
   // Advance()'s checks of the targets, and their begin and end values.
   void SetTargets(std::span<const double> targets_m);
   // One step of internal_dt_s() has three parts: ElementChunk(c) for every
@@ -168,7 +191,7 @@ class TledSolver {
   // gathered them; null gathers here.
   void NodeChunk(int chunk, double fraction_end, const T* gathered = nullptr);
   // Worker `worker`'s requests for the lines of the cut its part exchanges
-  // with the others (TledModel::halo_lines, shared_lines), spread over the
+  // with the others (TledModel::halo_lines, cut_copies_), spread over the
   // first kCutRequestSlices element chunks of its own range: called before
   // each element chunk it runs, a slice of each list before each of those.
   void RequestCutLines(int worker, int chunk) const;
@@ -200,7 +223,10 @@ class TledSolver {
   std::vector<T> free_mass_;           // per dof: nodal mass, 0 where constrained
   std::vector<double> target_begin_, target_end_;
 
-  AlignedVector<T> u_prev_, u_, u_next_;
+  std::vector<PartLevels> levels_;           // per model part
+  std::vector<int> element_chunk_part_, node_chunk_part_;
+  std::vector<CutCopy> cut_copies_;
+  std::vector<int> chunk_copies_begin_;  // node chunk c's are [begin[c], begin[c + 1]) of cut_copies_
   AlignedVector<T> element_forces_;
   ElementLoads<T> element_loads_;  // none while its first is null
   std::vector<T> internal_force_, external_force_, reaction_;

@@ -147,7 +147,7 @@ TEST_CASE("subdomains: the nodes on the cut sit together at the parts' ends", "[
 
   // The lines the model lists as crossing: of a per-node array (3 floats a
   // node, 16 a line), those holding a value of a node the part reads of the
-  // other (halo_lines) or the other reads of it (shared_lines).
+  // other.
   auto lines_of = [](const std::set<int>& nodes) {
     std::vector<int32_t> lines;
     for (int a : nodes) {
@@ -160,7 +160,6 @@ TEST_CASE("subdomains: the nodes on the cut sit together at the parts' ends", "[
   auto listed = [](std::span<const int32_t> lines) { return std::vector<int32_t>(lines.begin(), lines.end()); };
   for (int w = 0; w < 2; ++w) {
     CHECK(listed(model.halo_lines(w)) == lines_of(read_from_other[w]));
-    CHECK(listed(model.shared_lines(w)) == lines_of(read_from_other[1 - w]));
   }
   // Together, the nodes' 12 bytes each fill as few lines as they can, plus
   // one where a range starts inside a line.
