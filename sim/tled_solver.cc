@@ -509,18 +509,8 @@ std::vector<T> TledSolver<T>::LevelInLayoutOrder(Level level) const {
 
 template <typename T>
 std::span<const T> TledSolver<T>::LevelInMeshOrder(Level level, MeshOrderView& view) const {
-  if (view.version != state_version_) {
-    view.values.resize(3 * size_t(model_->num_nodes()));
-    const std::span<const int> node_begin = model_->part_node_begin();
-    for (int p = 0; p < model_->parts(); ++p) {
-      const AlignedVector<T>& own = levels_[p].*level;
-      for (int a = node_begin[p]; a < node_begin[p + 1]; ++a) {
-        for (int i = 0; i < 3; ++i) view.values[3 * size_t(model_->mesh_node(a)) + i] = own[3 * a + i];
-      }
-    }
-    view.version = state_version_;
-  }
-  return view.values;
+  if (view.version == state_version_) return view.values;
+  return InMeshOrder(LevelInLayoutOrder(level), view);
 }
 
 template <typename T>
