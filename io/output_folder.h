@@ -1,7 +1,10 @@
 #pragma once
 
+#include <memory>
 #include <string>
 #include <vector>
+
+#include "io/process_lock.h"
 
 namespace dg::io {
 
@@ -9,11 +12,10 @@ namespace dg::io {
 //
 // Two runs writing into one folder would interleave their files (the second
 // run's log replacing the first's while the first still appends to it). So
-// the claim takes an exclusive advisory lock (flock) on the folder's
-// `.dynaguide.lock`, with the holder's pid written inside, and a second
-// claim, from any process, is refused naming that pid. The lock goes with
-// the claim or with the process (a killed run leaves no lock behind); the
-// lock file itself stays, empty of meaning until locked again.
+// the claim takes the folder's `.dynaguide.lock` (a ProcessLock), and a
+// second claim, from any process, is refused naming the holder's pid. The
+// lock goes with the claim or with the process (a killed run leaves no lock
+// behind).
 //
 // Once it holds the lock, the claim removes what an earlier run of the same
 // command left in the folder (its outputs, named by the caller as exact names
@@ -36,7 +38,7 @@ class OutputFolderClaim {
   const std::vector<std::string>& removed() const { return removed_; }
 
  private:
-  int fd_ = -1;
+  std::unique_ptr<ProcessLock> lock_;
   std::vector<std::string> removed_;
 };
 

@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <fstream>
 
+#include "io/process_lock.h"
 #include "sim/error.h"
 #include "tools/phantom/phantom_generator.h"
 #include "tools/phantom/phantom_spec.h"
@@ -34,9 +35,26 @@ std::string CachedPhantomScenePath(const std::string& preset, std::uint64_t seed
   const fs::path done_mark = scene_dir / ".complete";
   if (fs::exists(done_mark)) return (scene_dir / "scene.yaml").string();
 
+  // Processes that start together on an empty cache (a test suite, a batch
+  // of runs) take turns: one generates, the others wait for it and then
+  // find the scene complete. Without the lock the later one would remove
+  // the scene, or the half-written folder, the first is reading or writing.
+  std::error_code error;
+  fs::create_directories(scene_dir.parent_path(), error);
+  if (error) {
+    throw Error("cannot create the cache directory: " + error.message(), scene_dir.parent_path().string(),
+                "set DG_CACHE_DIR to a writable directory, or give a scene file");
+  }
+  io::ProcessLock lock(scene_dir.string() + ".lock",
+                       "set DG_CACHE_DIR to a writable directory on a file system that supports flock");
+  lock.Lock([&](const std::string& pid) {
+    std::fprintf(stderr, "dynaguide: waiting for another dynaguide process%s, which is generating %s\n",
+                 pid.empty() ? "" : (" (pid " + pid + ")").c_str(), scene_dir.string().c_str());
+  });
+  if (fs::exists(done_mark)) return (scene_dir / "scene.yaml").string();
+
   std::fprintf(stderr, "dynaguide: generating the %s phantom scene (seed %llu) into %s (once; about half a minute)\n",
                preset.c_str(), static_cast<unsigned long long>(seed), scene_dir.string().c_str());
-  std::error_code error;
   fs::remove_all(scene_dir, error);
   const fs::path partial = scene_dir.string() + ".partial";
   fs::remove_all(partial, error);

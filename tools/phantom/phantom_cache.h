@@ -11,7 +11,8 @@ namespace dg::tools {
 // generated on first use into the cache directory ($DG_CACHE_DIR, else
 // $XDG_CACHE_HOME/dynaguide, else ~/.cache/dynaguide) and reused after. A
 // generation that was interrupted is not reused: the scene counts only once
-// its directory is complete.
+// its directory is complete. Processes that ask at once take turns (a lock
+// file beside the scene): one generates, the others wait and reuse it.
 // @returns the scene file's path. @throws dg::Error when the cache cannot be written.
 std::string DefaultScenePath(bool progress);
 
