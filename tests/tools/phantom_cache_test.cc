@@ -9,6 +9,7 @@
 #include <map>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include <catch2/catch.hpp>
 
@@ -57,21 +58,17 @@ TEST_CASE("phantom cache: two asking at once for a scene not yet cached both get
   std::string paths[2];
   std::exception_ptr errors[2];
   {
-    std::jthread first([&] {
-      try {
-        paths[0] = CachedPhantomScenePath("tiny", kSeed, false);
-      } catch (...) {
-        errors[0] = std::current_exception();
-      }
-    });
-    std::jthread second([&] {
-      try {
-        paths[1] = CachedPhantomScenePath("tiny", kSeed, false);
-      } catch (...) {
-        errors[1] = std::current_exception();
-      }
-    });
-  }
+    std::vector<std::jthread> askers;
+    for (int k = 0; k < 2; ++k) {
+      askers.emplace_back([&, k] {
+        try {
+          paths[k] = CachedPhantomScenePath("tiny", kSeed, false);
+        } catch (...) {
+          errors[k] = std::current_exception();
+        }
+      });
+    }
+  }  // both joined
   for (const std::exception_ptr& error : errors) {
     if (error) std::rethrow_exception(error);
   }
