@@ -64,6 +64,11 @@ class StepTeam {
     long long long_waits = 0;
   };
   static constexpr double kLongWait_s = 10e-6;
+  // Whether worker `worker` works on the current run's passes: called from
+  // inside a pass, the same for the whole pass. Worker 0 always does.
+  bool Working(int worker) const { return InRun(worker); }
+  // One wait of a loop that waits for a working thread: spins, then yields.
+  static void Backoff(int waits);
   // Each worker's time since the team was built or the last ResetTiming().
   // Call between runs.
   std::vector<WorkerTime> Timing() const;
@@ -203,7 +208,6 @@ class StepTeam {
   static void WaitUntil(Ready&& ready) {
     for (int waits = 0; !ready(); ++waits) Backoff(waits);
   }
-  static void Backoff(int waits);
   // Clears every range's claims and counts for the next pass.
   static void ResetClaims(State& state);
 

@@ -153,17 +153,22 @@ TledSolver<T>::TledSolver(std::shared_ptr<const TledModel<T>> model, BoundaryCon
     part.u_next.assign(n_dofs, T(0));
   }
   element_forces_.assign(model_->force_array_size(), T(0));
-  internal_force_.assign(n_dofs, T(0));
   external_force_.assign(n_dofs, T(0));
-  reaction_.assign(n_dofs, T(0));
-  chunk_min_J_.assign(model_->element_chunks(), T(1));
-  chunk_kinetic_.assign(NodeChunks(*model_), 0.0);
-  for (int c = 0; c <= node_chunks(); ++c) {
+  for (int entry = 0; entry < 2; ++entry) {
+    internal_force_[entry].assign(n_dofs, T(0));
+    reaction_[entry].assign(n_dofs, T(0));
+  }
+  chunk_min_J_.assign(size_t(kFreeSteps) * model_->element_chunks(), T(1));
+  chunk_kinetic_.assign(size_t(kFreeSteps) * NodeChunks(*model_), 0.0);
+  for (int c = 0; c <= NodeChunks(*model_); ++c) {
     const int first_dof = 3 * std::min(c * kNodesPerChunk, model_->num_nodes());
     chunk_constrained_begin_.push_back(static_cast<int>(
         std::lower_bound(constrained_dofs_.begin(), constrained_dofs_.end(), first_dof) - constrained_dofs_.begin()));
   }
   ListCutCopies();
+  ListWaitChunks();
+  progress_ = std::make_unique<FreeProgress>(model_->parts());
+  PinRing();
   energy_history_.assign(2 * options_.energy_window_steps + 1, 0.0);
 }
 
@@ -232,9 +237,13 @@ void TledSolver<T>::SetTargets(std::span<const double> targets_m) {
 template <typename T>
 void TledSolver<T>::Advance(int steps, std::span<const double> targets_m) {
   SetTargets(targets_m);
+  const int total = steps * substeps_;
+  if (RunsFree()) {
+    AdvanceFree(total);
+    return;
+  }
   // One pass a step: elements, then nodes, whose serial end finishes and
   // checks the step.
-  const int total = steps * substeps_;
   team_->Run(
       total,
       [&](int worker, int step) {
@@ -288,27 +297,29 @@ void TledSolver<T>::RequestCutLines(int worker, int chunk) const {
 }
 
 template <typename T>
-void TledSolver<T>::ElementChunk(int chunk) {
+void TledSolver<T>::ElementChunk(int chunk, int ahead) {
   // Forces (less the element loads) of every element at U.
   const int begin = model_->chunk_block_begin(chunk), end = model_->chunk_block_begin(chunk + 1);
-  const T* u = levels_[element_chunk_part_[chunk]].u.data();
-  chunk_min_J_[chunk] =
+  const T* u = RingLevel(element_chunk_part_[chunk], ahead, 1);
+  chunk_min_J_[size_t(ahead % kFreeSteps) * element_chunks() + chunk] =
       element_loads_.first
           ? ComputeElementForcesLessLoads(*model_, u, element_loads_, element_forces_.data(), begin, end)
           : ComputeElementForces(*model_, u, element_forces_.data(), begin, end);
 }
 
 template <typename T>
-void TledSolver<T>::NodeChunk(int chunk, double fraction_end, const T* gathered) {
+void TledSolver<T>::NodeChunk(int chunk, double fraction_end, const T* gathered, int ahead) {
   // Gather (unless given) and central-difference update of every dof as if
   // free, with the kinetic energy of the free dofs (sum of m v^2, scaled in FinishStep).
   const TledModel<T>& model = *model_;
   const int begin = chunk * kNodesPerChunk;
   const int end = std::min(begin + kNodesPerChunk, model.num_nodes());
-  PartLevels& part = levels_[node_chunk_part_[chunk]];
-  const T* u = part.u.data();
-  const T* u_prev = part.u_prev.data();
-  T* u_next = part.u_next.data();
+  const int part = node_chunk_part_[chunk];
+  const T* u = RingLevel(part, ahead, 1);
+  const T* u_prev = RingLevel(part, ahead, 0);
+  T* u_next = RingLevel(part, ahead, 2);
+  T* internal_force = internal_force_[StepEntry(ahead)].data();
+  T* reaction = reaction_[StepEntry(ahead)].data();
   T own[3 * kNodesPerChunk];
   gathered = ChunkNodalForces(model, element_forces_.data(), begin, end, gathered, own);
   double twice_kinetic = 0;
@@ -317,7 +328,7 @@ void TledSolver<T>::NodeChunk(int chunk, double fraction_end, const T* gathered)
     T m_v2 = 0;
     for (int i = 0; i < 3; ++i) {
       const int dof = 3 * a + i;
-      internal_force_[dof] = f[i];
+      internal_force[dof] = f[i];
       const T next = u[dof] + force_gain_[a] * (external_force_[dof] - f[i]) + gravity_term_[i] +
                      increment_decay_ * (u[dof] - u_prev[dof]);
       u_next[dof] = next;
@@ -342,18 +353,18 @@ void TledSolver<T>::NodeChunk(int chunk, double fraction_end, const T* gathered)
     const double acceleration = (next - 2.0 * u[dof] + u_prev[dof]) * inv_dt2;
     const double velocity = (next - u_prev[dof]) * inv_2dt;
     const int a = dof / 3;
-    reaction_[dof] = static_cast<T>(mass[a] * (acceleration + alpha * velocity - options_.gravity_m_s2[dof % 3]) +
-                                    internal_force_[dof] - external_force_[dof]);
+    reaction[dof] = static_cast<T>(mass[a] * (acceleration + alpha * velocity - options_.gravity_m_s2[dof % 3]) +
+                                   internal_force[dof] - external_force_[dof]);
     const double v = next - u_prev[dof];
     twice_kinetic += mass[a] * v * v;
   }
-  chunk_kinetic_[chunk] = twice_kinetic;
+  chunk_kinetic_[size_t(ahead % kFreeSteps) * node_chunks() + chunk] = twice_kinetic;
   // The chunk's lines other parts read, now final, into their next levels.
   // A whole line is one fixed-size copy (a register), not a call.
-  const int values = static_cast<int>(part.u_next.size());
+  const int values = 3 * model.num_nodes();
   for (int k = chunk_copies_begin_[chunk]; k < chunk_copies_begin_[chunk + 1]; ++k) {
     const CutCopy& copy = cut_copies_[k];
-    T* to = levels_[copy.part].u_next.data() + copy.offset;
+    T* to = RingLevel(copy.part, ahead, 2) + copy.offset;
     if (copy.offset + kLineValues <= values) {
       std::memcpy(to, u_next + copy.offset, 64);
     } else {
@@ -364,22 +375,31 @@ void TledSolver<T>::NodeChunk(int chunk, double fraction_end, const T* gathered)
 
 template <typename T>
 void TledSolver<T>::FinishStep() {
-  const double inv_2dt = 0.5 / internal_dt_s();
-  kinetic_energy_j_ = 0;
-  for (double k : chunk_kinetic_) kinetic_energy_j_ += 0.5 * inv_2dt * inv_2dt * k;
+  kinetic_energy_j_ = KineticEnergy(0);
   for (PartLevels& part : levels_) {
     std::swap(part.u_prev, part.u);
     std::swap(part.u, part.u_next);
   }
+  PinRing();
   ++internal_steps_;
   ++state_version_;
 }
 
 template <typename T>
-void TledSolver<T>::CheckStep() {
+double TledSolver<T>::KineticEnergy(int row) const {
+  const double inv_2dt = 0.5 / internal_dt_s();
+  double energy = 0;
+  const auto begin = chunk_kinetic_.begin() + size_t(row) * node_chunks();
+  for (auto k = begin; k != begin + node_chunks(); ++k) energy += 0.5 * inv_2dt * inv_2dt * *k;
+  return energy;
+}
+
+template <typename T>
+void TledSolver<T>::CheckStep(int row) {
   // The forces just computed belong to the state before this step: J is the
   // step's starting shape, and the energy its velocity.
-  min_J_ = *std::min_element(chunk_min_J_.begin(), chunk_min_J_.end());
+  const auto row_J = chunk_min_J_.begin() + size_t(row) * element_chunks();
+  min_J_ = *std::min_element(row_J, row_J + element_chunks());
 
   energy_history_[internal_steps_ % energy_history_.size()] = kinetic_energy_j_;
   const bool blowing_up = EnergyBlowingUp();
@@ -468,6 +488,162 @@ void TledSolver<T>::ThrowInversion(const T* u, long long step) const {
   throw Error("inverted element", where,
               "the imposed deformation crushes the mesh: reduce the prescribed displacement or load, refine "
               "the mesh there, or check the boundary conditions");
+}
+
+template <typename T>
+bool TledSolver<T>::RunsFree() const {
+  return model_->parts() > 1 && team_->size() == model_->parts() && homes_.node_order.per_range;
+}
+
+template <typename T>
+void TledSolver<T>::AdvanceFree(int total) {
+  // Each pass: up to kFreeSteps steps, each worker stepping its own part and
+  // worker 0 also those of workers not in the run, one step of each in turn
+  // (a part waits for the others' last step, so one worker runs them in
+  // step order). The pass's serial end checks its steps.
+  for (auto& done : progress_->done) done.value.store(internal_steps_ - 1, std::memory_order_relaxed);
+  progress_->stopped_at.value.store(std::numeric_limits<long long>::max(), std::memory_order_relaxed);
+  // Passes of 1, 2, 4, ... steps up to kFreeSteps: the team's helpers join
+  // at a barrier, and until then worker 0 steps every part.
+  std::vector<int> pass_first = {0};
+  for (int length = 1; pass_first.back() < total; length = std::min(2 * length, kFreeSteps)) {
+    pass_first.push_back(std::min(total, pass_first.back() + length));
+  }
+  auto first_of = [&](int pass) { return pass_first[pass]; };
+  auto steps_of = [&](int pass) { return pass_first[pass + 1] - pass_first[pass]; };
+  const int passes = static_cast<int>(pass_first.size()) - 1;
+  team_->Run(
+      passes,
+      [&](int worker, int pass) {
+        int parts[StepTeam::kMaxWorkers];
+        int count = 0;
+        parts[count++] = worker;
+        for (int p = 1; worker == 0 && p < model_->parts(); ++p) {
+          if (!team_->Working(p)) parts[count++] = p;
+        }
+        for (int ahead = 0; ahead < steps_of(pass); ++ahead) {
+          const double fraction_end = double(first_of(pass) + ahead + 1) / total;
+          for (int k = 0; k < count; ++k) {
+            if (!FreeStep(parts[k], ahead, fraction_end)) return;
+          }
+        }
+      },
+      [&](int pass) { return FinishFreeSteps(steps_of(pass)); });
+}
+
+template <typename T>
+bool TledSolver<T>::FreeStep(int part, int ahead, double fraction_end) {
+  const long long step = internal_steps_ + ahead;
+  std::atomic<long long>& stopped_at = progress_->stopped_at.value;
+  auto stopped_before = [&] { return stopped_at.load(std::memory_order_acquire) < step; };
+  if (stopped_before()) return false;
+  const std::vector<int>& order = homes_.node_order.order;
+  const std::vector<int>& needs = homes_.node_order.needs;
+  const int first = homes_.elements[part], end = homes_.elements[part + 1];
+  int next = homes_.nodes[part];
+  const int node_end = homes_.nodes[part + 1];
+  for (int c = first; c < end; ++c) {
+    if (c == wait_chunk_[part]) {
+      // The other parts' last step: the lines of this part's halo they
+      // copied, and the end of their reading of what this step writes.
+      for (int other = 0; other < model_->parts(); ++other) {
+        if (other == part) continue;
+        for (int waits = 0; progress_->done[other].value.load(std::memory_order_acquire) < step - 1; ++waits) {
+          if (stopped_before()) return false;
+          StepTeam::Backoff(waits);
+        }
+      }
+      if (stopped_before()) return false;
+    }
+    if (c == first) {
+      // The halo's lines, which the other core copied in its last step: asked
+      // for now, they cross while the interior is computed. (The copy
+      // targets are not asked for early, as RequestCutLines does between
+      // barriers: the other core may still be reading those lines.)
+      const T* u = RingLevel(part, ahead, 1);
+      for (int32_t line : model_->halo_lines(part)) __builtin_prefetch(u + line, 0, 3);
+    }
+    ElementChunk(c, ahead);
+    for (; next < node_end && needs[next] <= c + 1 - first; ++next) NodeChunk(order[next], fraction_end, nullptr, ahead);
+  }
+  for (; next < node_end; ++next) NodeChunk(order[next], fraction_end, nullptr, ahead);
+  // An inverted element or a non-finite state stops every part after this
+  // step, as CheckStep would: a part that sees it says so before it says
+  // the step is done, so no other part goes past it.
+  const size_t row = ahead % kFreeSteps;
+  const auto J = chunk_min_J_.begin() + row * element_chunks();
+  const T min_J = *std::min_element(J + first, J + end);
+  double kinetic = 0;
+  for (int k = homes_.nodes[part]; k < node_end; ++k) kinetic += chunk_kinetic_[row * node_chunks() + order[k]];
+  if (!(min_J > 0) || !std::isfinite(kinetic)) {
+    long long stopped = stopped_at.load(std::memory_order_relaxed);
+    while (step < stopped && !stopped_at.compare_exchange_weak(stopped, step, std::memory_order_release)) {
+    }
+  }
+  progress_->done[part].value.store(step, std::memory_order_release);
+  return true;
+}
+
+template <typename T>
+bool TledSolver<T>::FinishFreeSteps(int steps) {
+  const long long stopped = progress_->stopped_at.value.load(std::memory_order_acquire);
+  const int completed = stopped < internal_steps_ + steps ? static_cast<int>(stopped - internal_steps_ + 1) : steps;
+  // The parts' arrays named for the state after the last completed step;
+  // then each step's reductions and checks, in order.
+  for (size_t p = 0; p < levels_.size(); ++p) {
+    PartLevels& part = levels_[p];
+    std::array<AlignedVector<T>, 3> ring = {std::move(part.u_prev), std::move(part.u), std::move(part.u_next)};
+    part.u_prev = std::move(ring[completed % 3]);
+    part.u = std::move(ring[(completed + 1) % 3]);
+    part.u_next = std::move(ring[(completed + 2) % 3]);
+  }
+  PinRing();
+  const long long first_step = internal_steps_;
+  ++state_version_;
+  try {
+    for (int k = 0; k < completed; ++k) {
+      kinetic_energy_j_ = KineticEnergy(k);
+      internal_steps_ = first_step + k + 1;
+      CheckStep(k);
+    }
+  } catch (...) {
+    // Named at the step it found; the state is the last completed step's.
+    internal_steps_ = first_step + completed;
+    throw;
+  }
+  // A stop comes from a step CheckStep throws for.
+  DG_CHECK(completed == steps);
+  return true;
+}
+
+template <typename T>
+void TledSolver<T>::PinRing() {
+  ring_.resize(levels_.size());
+  for (size_t p = 0; p < levels_.size(); ++p) {
+    ring_[p] = {levels_[p].u_prev.data(), levels_[p].u.data(), levels_[p].u_next.data()};
+  }
+}
+
+template <typename T>
+void TledSolver<T>::ListWaitChunks() {
+  // A part's halo comes last (TledModel): its first chunk with a node of
+  // another part, or else its last chunk, so that every part waits once a step.
+  constexpr int W = TledModel<T>::kLanes;
+  wait_chunk_.assign(model_->parts(), 0);
+  for (int p = 0; p < model_->parts(); ++p) {
+    const int node_begin = model_->part_node_begin()[p], node_end = model_->part_node_begin()[p + 1];
+    const int first = model_->part_chunk_begin()[p], end = model_->part_chunk_begin()[p + 1];
+    int c = first;
+    for (; c < end; ++c) {
+      bool reads_others = false;
+      for (int b = model_->chunk_block_begin(c); b < model_->chunk_block_begin(c + 1) && !reads_others; ++b) {
+        const int32_t* nodes = model_->block_nodes(b);
+        for (int k = 0; k < 4 * W; ++k) reads_others |= nodes[k] < node_begin || nodes[k] >= node_end;
+      }
+      if (reads_others) break;
+    }
+    wait_chunk_[p] = std::min(c, end - 1);
+  }
 }
 
 template <typename T>

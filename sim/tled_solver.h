@@ -1,5 +1,7 @@
 #pragma once
 
+#include <array>
+#include <atomic>
 #include <memory>
 #include <span>
 #include <string>
@@ -61,12 +63,15 @@ struct BoundaryConditions {
 //
 // Threading: Advance() runs its steps on a StepTeam (one given, or its own of
 // options.threads, by default bounded by the caller's tbb::global_control;
-// docs/solver.md):
-// per step one pass of element chunks, then node chunks (each worker's node
-// chunks after the element chunks they gather from), ended by the team's
-// barrier, whose serial section does the step's reductions and checks. Results do not depend on the thread count. One
-// solver must not be advanced from two threads at once. Advance() allocates
-// nothing per step.
+// docs/solver.md): each step is a pass of element chunks, then node chunks
+// (each worker's node chunks after the element chunks they gather from).
+// With a part of the model for each worker, the workers run up to
+// kFreeSteps steps between two barriers, each waiting only for the others'
+// last step before its halo ("Free-running steps"); otherwise each step
+// ends with the team's barrier. The serial section after a barrier does the
+// steps' reductions and checks. Results do not depend on the thread count,
+// nor does the step an error stops at. One solver must not be advanced from
+// two threads at once. Advance() allocates nothing per step.
 template <typename T>
 class TledSolver {
  public:
@@ -130,10 +135,12 @@ class TledSolver {
   // whole state, e.g. to carry it into a solver with other boundary conditions.
   std::span<const T> previous_displacement() const { return LevelInMeshOrder(&PartLevels::u_prev, previous_view_); }
   // Internal force F(U) of the last step less the element loads, newtons.
-  std::span<const T> internal_forces() const { return InMeshOrder(internal_force_, internal_force_view_); }
+  std::span<const T> internal_forces() const {
+    return InMeshOrder(internal_force_[LastStepEntry()], internal_force_view_);
+  }
   // Force each constrained dof's support exerts on the body at the last step,
   // M a + alpha M v + F - R (zero on free dofs), newtons.
-  std::span<const T> reaction_forces() const { return InMeshOrder(reaction_, reaction_view_); }
+  std::span<const T> reaction_forces() const { return InMeshOrder(reaction_[LastStepEntry()], reaction_view_); }
   // Kinetic energy at the last completed step (central-difference velocity), joules.
   double kinetic_energy_j() const { return kinetic_energy_j_; }
   // Smallest element J seen at the last step.
@@ -182,14 +189,18 @@ class TledSolver {
   // One step of internal_dt_s() has three parts: ElementChunk(c) for every
   // c < element_chunks(), then NodeChunk(c, ...) for every c < node_chunks()
   // (each in any order, on any thread), then FinishStep() and CheckStep().
-  int element_chunks() const { return static_cast<int>(chunk_min_J_.size()); }
-  int node_chunks() const { return static_cast<int>(chunk_kinetic_.size()); }
-  void ElementChunk(int chunk);
+  // The chunks of step `ahead` past steps_taken() (free-running steps; 0
+  // otherwise) read and write the time levels that step takes in the ring
+  // of each part's three (RingLevel), and keep their reductions in row
+  // `ahead` % kFreeSteps.
+  int element_chunks() const { return model_->element_chunks(); }
+  int node_chunks() const { return static_cast<int>(chunk_constrained_begin_.size()) - 1; }
+  void ElementChunk(int chunk, int ahead = 0);
   // The update of the chunk's nodes; its prescribed dofs reach `fraction_end`
   // of the way from their begin to their end targets. `gathered`: the chunk's
   // nodal forces (3 per node, as GatherNodalForce sums them) if the caller
   // gathered them; null gathers here.
-  void NodeChunk(int chunk, double fraction_end, const T* gathered = nullptr);
+  void NodeChunk(int chunk, double fraction_end, const T* gathered = nullptr, int ahead = 0);
   // Worker `worker`'s requests for the lines of the cut its part exchanges
   // with the others (TledModel::halo_lines, cut_copies_), spread over the
   // first kCutRequestSlices element chunks of its own range: called before
@@ -197,7 +208,38 @@ class TledSolver {
   void RequestCutLines(int worker, int chunk) const;
   static constexpr int kCutRequestSlices = 8;
   void FinishStep();
-  void CheckStep();
+  // The step's checks on its reductions in row `row`.
+  void CheckStep(int row = 0);
+  // The kinetic energy of the step whose reductions are in row `row`.
+  double KineticEnergy(int row) const;
+  // Lists each part's first element chunk that reads another part's lines (wait_chunk_).
+  void ListWaitChunks();
+
+  // Free-running steps (docs/solver.md, "Free-running steps"): with a part
+  // for each worker, a pass of the team runs up to kFreeSteps steps, each
+  // worker its own part's, and a part waits before its halo for every other
+  // part's last step. The rest of the team's barrier goes to the pass's end.
+  static constexpr int kFreeSteps = 32;
+  bool RunsFree() const;
+  void AdvanceFree(int total);
+  // Part `part`'s step `ahead` past steps_taken(), its prescribed dofs at
+  // `fraction_end`: false, having written nothing the state keeps, when a
+  // part stopped at an earlier step.
+  bool FreeStep(int part, int ahead, double fraction_end);
+  // The serial end of a pass of `steps` free-running steps: the state moves
+  // to the last step completed, and each step's reductions and checks run
+  // as CheckStep's would, in order (so a stop throws there).
+  bool FinishFreeSteps(int steps);
+  // The time level `which` (0: U-, 1: U, 2: U+) of part `part` at step
+  // `ahead` past steps_taken(): a ring of its three arrays, pinned at the
+  // Advance's start (ring_).
+  T* RingLevel(int part, int ahead, int which) const { return ring_[part][(ahead + which) % 3]; }
+  // Points the ring at the parts' arrays as named now.
+  void PinRing();
+  // The entry of the two-step rings (internal_force_, reaction_) of step
+  // `ahead` past steps_taken(), and of the last completed step.
+  int StepEntry(int ahead) const { return static_cast<int>((internal_steps_ + ahead) % 2); }
+  int LastStepEntry() const { return static_cast<int>((internal_steps_ + 1) % 2); }
   bool EnergyBlowingUp() const;
   // The error for the most inverted element of state u at `step`.
   [[noreturn]] void ThrowInversion(const T* u, long long step) const;
@@ -224,14 +266,31 @@ class TledSolver {
   std::vector<double> target_begin_, target_end_;
 
   std::vector<PartLevels> levels_;           // per model part
+  std::vector<std::array<T*, 3>> ring_;      // per part: its U-, U, U+ at the ring's step 0
+  // Free-running: the last step each part completed, and the step a part
+  // stopped at (an inverted element), each on a line of its own; held apart
+  // so that the solver stays movable.
+  struct FreeProgress {
+    struct alignas(64) Step {
+      std::atomic<long long> value{-1};
+    };
+    explicit FreeProgress(int parts) : done(parts) {}
+    std::vector<Step> done;  // per part
+    Step stopped_at;
+  };
+  std::unique_ptr<FreeProgress> progress_;
+  std::vector<int> wait_chunk_;  // per part: the first element chunk that reads the other parts' lines
   std::vector<int> element_chunk_part_, node_chunk_part_;
   std::vector<CutCopy> cut_copies_;
   std::vector<int> chunk_copies_begin_;  // node chunk c's are [begin[c], begin[c + 1]) of cut_copies_
   AlignedVector<T> element_forces_;
   ElementLoads<T> element_loads_;  // none while its first is null
-  std::vector<T> internal_force_, external_force_, reaction_;
+  std::vector<T> external_force_;
+  std::array<std::vector<T>, 2> internal_force_, reaction_;  // by StepEntry()
+  // kFreeSteps rows, one a step: per element chunk its smallest J, per node
+  // chunk twice its kinetic energy times (2 dt)^2.
   std::vector<T> chunk_min_J_;
-  std::vector<double> chunk_kinetic_;  // twice the chunk's kinetic energy times (2 dt)^2
+  std::vector<double> chunk_kinetic_;
 
   long long internal_steps_ = 0;
   long long state_version_ = 0;  // changes with every step and SetState()

@@ -309,13 +309,15 @@ class MachineSamples {
 };
 
 // Where the workers of `team` that joined spent a step of the timed repeats
-// (its timing reset after the warm-up): one pass a step. A team of one
-// records nothing.
-void RecordTeamTiming(const sim::StepTeam& team, SimBenchRecord* record) {
-  std::vector<sim::StepTeam::WorkerTime> joined = team.Timing();
+// (its timing reset after the warm-up, when the solver had taken
+// `steps_before`; a pass may hold several steps). A team of one records nothing.
+template <typename T>
+void RecordTeamTiming(sim::TledSolver<T>& solver, long long steps_before, SimBenchRecord* record) {
+  std::vector<sim::StepTeam::WorkerTime> joined = solver.team().Timing();
   std::erase_if(joined, [](const sim::StepTeam::WorkerTime& time) { return time.passes == 0; });
+  const double steps = double(solver.steps_taken() - steps_before);
   for (const sim::StepTeam::WorkerTime& time : joined) {
-    const double per_step_us = 1e6 / double(time.passes);
+    const double per_step_us = 1e6 / steps;
     record->working_us_per_step.push_back(time.working_s * per_step_us);
     record->barrier_us_per_step += (time.waiting_s + time.serial_s) * per_step_us / double(joined.size());
     record->long_waits_us_per_step += time.long_waiting_s * per_step_us / double(joined.size());
@@ -385,6 +387,7 @@ std::vector<SimBenchRecord> MeasureForward(const std::vector<BenchProblem>& grou
     std::vector<Solvers> teams, apart;
     std::vector<std::vector<std::vector<double>>> apart_each_rates;  // per thread count, per solver
     std::vector<size_t> team_config, apart_config;  // indices into `timed`
+    std::vector<long long> team_steps_timed_from;    // per thread count: the team's steps at the warm-up's end
   };
   std::vector<Measured> measured(group.size());
   std::vector<TimedConfiguration> timed;
@@ -404,11 +407,15 @@ std::vector<SimBenchRecord> MeasureForward(const std::vector<BenchProblem>& grou
     m.apart.resize(counts);
     m.apart_each_rates.resize(counts);
     m.apart_config.assign(counts, 0);
+    m.team_steps_timed_from.assign(counts, 0);
     for (size_t k = 0; k < counts; ++k) {
       m.teams[k].push_back(MakeForwardSolver<T>(problem, TeamSize(options.threads[k]), options));
       m.team_config.push_back(timed.size());
       timed.push_back(ForwardConfiguration<T>(m.teams[k], problem, m.targets, options));
-      timed.back().after_warm_up = [&solver = *m.teams[k].front()] { solver.team().ResetTiming(); };
+      timed.back().after_warm_up = [&solver = *m.teams[k].front(), &from = m.team_steps_timed_from[k]] {
+        solver.team().ResetTiming();
+        from = solver.steps_taken();
+      };
       if (options.threads[k] < 2) continue;
       for (int t = 0; t < options.threads[k]; ++t) m.apart[k].push_back(MakeForwardSolver<T>(problem, 1, options));
       m.apart_config[k] = timed.size();
@@ -436,7 +443,7 @@ std::vector<SimBenchRecord> MeasureForward(const std::vector<BenchProblem>& grou
           record.each_core_alone_tet_steps_per_s.push_back(MedianOfSorted(rates));
         }
       }
-      RecordTeamTiming(m.teams[k].front()->team(), &record);
+      RecordTeamTiming(*m.teams[k].front(), m.team_steps_timed_from[k], &record);
       records.push_back(record);
     }
   }
