@@ -154,10 +154,8 @@ TledSolver<T>::TledSolver(std::shared_ptr<const TledModel<T>> model, BoundaryCon
   }
   element_forces_.assign(model_->force_array_size(), T(0));
   external_force_.assign(n_dofs, T(0));
-  for (int entry = 0; entry < 2; ++entry) {
-    internal_force_[entry].assign(n_dofs, T(0));
-    reaction_[entry].assign(n_dofs, T(0));
-  }
+  internal_force_.assign(n_dofs, T(0));
+  for (std::vector<T>& reaction : reaction_) reaction.assign(n_dofs, T(0));
   chunk_min_J_.assign(size_t(kFreeSteps) * model_->element_chunks(), T(1));
   chunk_kinetic_.assign(size_t(kFreeSteps) * NodeChunks(*model_), 0.0);
   for (int c = 0; c <= NodeChunks(*model_); ++c) {
@@ -318,7 +316,7 @@ void TledSolver<T>::NodeChunk(int chunk, double fraction_end, const T* gathered,
   const T* u = RingLevel(part, ahead, 1);
   const T* u_prev = RingLevel(part, ahead, 0);
   T* u_next = RingLevel(part, ahead, 2);
-  T* internal_force = internal_force_[StepEntry(ahead)].data();
+  T* internal_force = internal_force_.data();
   T* reaction = reaction_[StepEntry(ahead)].data();
   T own[3 * kNodesPerChunk];
   gathered = ChunkNodalForces(model, element_forces_.data(), begin, end, gathered, own);
@@ -609,11 +607,26 @@ bool TledSolver<T>::FinishFreeSteps(int steps) {
   } catch (...) {
     // Named at the step it found; the state is the last completed step's.
     internal_steps_ = first_step + completed;
+    if (completed < steps) RecomputeInternalForces();
     throw;
   }
   // A stop comes from a step CheckStep throws for.
   DG_CHECK(completed == steps);
   return true;
+}
+
+template <typename T>
+void TledSolver<T>::RecomputeInternalForces() {
+  for (int c = 0; c < element_chunks(); ++c) {
+    const int begin = model_->chunk_block_begin(c), end = model_->chunk_block_begin(c + 1);
+    const T* u_prev = levels_[element_chunk_part_[c]].u_prev.data();
+    if (element_loads_.first) {
+      ComputeElementForcesLessLoads(*model_, u_prev, element_loads_, element_forces_.data(), begin, end);
+    } else {
+      ComputeElementForces(*model_, u_prev, element_forces_.data(), begin, end);
+    }
+  }
+  for (int a = 0; a < model_->num_nodes(); ++a) GatherNodalForce(*model_, element_forces_.data(), a, &internal_force_[3 * a]);
 }
 
 template <typename T>

@@ -135,9 +135,7 @@ class TledSolver {
   // whole state, e.g. to carry it into a solver with other boundary conditions.
   std::span<const T> previous_displacement() const { return LevelInMeshOrder(&PartLevels::u_prev, previous_view_); }
   // Internal force F(U) of the last step less the element loads, newtons.
-  std::span<const T> internal_forces() const {
-    return InMeshOrder(internal_force_[LastStepEntry()], internal_force_view_);
-  }
+  std::span<const T> internal_forces() const { return InMeshOrder(internal_force_, internal_force_view_); }
   // Force each constrained dof's support exerts on the body at the last step,
   // M a + alpha M v + F - R (zero on free dofs), newtons.
   std::span<const T> reaction_forces() const { return InMeshOrder(reaction_[LastStepEntry()], reaction_view_); }
@@ -230,14 +228,17 @@ class TledSolver {
   // to the last step completed, and each step's reductions and checks run
   // as CheckStep's would, in order (so a stop throws there).
   bool FinishFreeSteps(int steps);
+  // Internal forces of the step that starts from the current U-, as that
+  // step computed them: after a stop, for nodes whose part went on.
+  void RecomputeInternalForces();
   // The time level `which` (0: U-, 1: U, 2: U+) of part `part` at step
   // `ahead` past steps_taken(): a ring of its three arrays, pinned at the
   // Advance's start (ring_).
   T* RingLevel(int part, int ahead, int which) const { return ring_[part][(ahead + which) % 3]; }
   // Points the ring at the parts' arrays as named now.
   void PinRing();
-  // The entry of the two-step rings (internal_force_, reaction_) of step
-  // `ahead` past steps_taken(), and of the last completed step.
+  // The entry of the two-step ring of reactions (reaction_) of step `ahead`
+  // past steps_taken(), and of the last completed step.
   int StepEntry(int ahead) const { return static_cast<int>((internal_steps_ + ahead) % 2); }
   int LastStepEntry() const { return static_cast<int>((internal_steps_ + 1) % 2); }
   bool EnergyBlowingUp() const;
@@ -286,7 +287,11 @@ class TledSolver {
   AlignedVector<T> element_forces_;
   ElementLoads<T> element_loads_;  // none while its first is null
   std::vector<T> external_force_;
-  std::array<std::vector<T>, 2> internal_force_, reaction_;  // by StepEntry()
+  std::vector<T> internal_force_;
+  // By StepEntry(): a part one step ahead of a stop (free-running) writes
+  // the other. (Internal forces, written at every node, are recomputed
+  // after a stop instead: a second array would cost every step its traffic.)
+  std::array<std::vector<T>, 2> reaction_;
   // kFreeSteps rows, one a step: per element chunk its smallest J, per node
   // chunk twice its kinetic energy times (2 dt)^2.
   std::vector<T> chunk_min_J_;
