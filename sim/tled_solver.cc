@@ -1,6 +1,7 @@
 #include "sim/tled_solver.h"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -502,14 +503,18 @@ void TledSolver<T>::AdvanceFree(int total) {
   for (auto& done : progress_->done) done.value.store(internal_steps_ - 1, std::memory_order_relaxed);
   progress_->stopped_at.value.store(std::numeric_limits<long long>::max(), std::memory_order_relaxed);
   // Passes of 1, 2, 4, ... steps up to kFreeSteps: the team's helpers join
-  // at a barrier, and until then worker 0 steps every part.
-  std::vector<int> pass_first = {0};
-  for (int length = 1; pass_first.back() < total; length = std::min(2 * length, kFreeSteps)) {
-    pass_first.push_back(std::min(total, pass_first.back() + length));
-  }
-  auto first_of = [&](int pass) { return pass_first[pass]; };
-  auto steps_of = [&](int pass) { return pass_first[pass + 1] - pass_first[pass]; };
-  const int passes = static_cast<int>(pass_first.size()) - 1;
+  // at a barrier, and until then worker 0 steps every part. Pass p starts
+  // at step 2^p - 1 while the passes double, then every kFreeSteps.
+  static_assert((kFreeSteps & (kFreeSteps - 1)) == 0, "the passes double up to kFreeSteps");
+  constexpr int kDoublings = std::countr_zero(unsigned(kFreeSteps));
+  auto first_of = [&](int pass) {
+    const long long first = pass <= kDoublings ? (1LL << pass) - 1
+                                               : kFreeSteps - 1 + (long long)(pass - kDoublings) * kFreeSteps;
+    return static_cast<int>(std::min<long long>(first, total));
+  };
+  auto steps_of = [&](int pass) { return first_of(pass + 1) - first_of(pass); };
+  int passes = 0;
+  while (first_of(passes) < total) ++passes;
   team_->Run(
       passes,
       [&](int worker, int pass) {
@@ -519,8 +524,9 @@ void TledSolver<T>::AdvanceFree(int total) {
         for (int p = 1; worker == 0 && p < model_->parts(); ++p) {
           if (!team_->Working(p)) parts[count++] = p;
         }
-        for (int ahead = 0; ahead < steps_of(pass); ++ahead) {
-          const double fraction_end = double(first_of(pass) + ahead + 1) / total;
+        const int first = first_of(pass), steps = steps_of(pass);
+        for (int ahead = 0; ahead < steps; ++ahead) {
+          const double fraction_end = double(first + ahead + 1) / total;
           for (int k = 0; k < count; ++k) {
             if (!FreeStep(parts[k], ahead, fraction_end)) return;
           }
