@@ -70,8 +70,10 @@ struct BoundaryConditions {
 // last step before its halo ("Free-running steps"); otherwise each step
 // ends with the team's barrier. The serial section after a barrier does the
 // steps' reductions and checks. Results do not depend on the thread count,
-// nor does the step an error stops at. One solver must not be advanced from
-// two threads at once. Advance() allocates nothing per step.
+// nor does the state an inversion stops at; a blow-up found by the energy
+// test alone is named at its step, with the state at the end of its pass.
+// One solver must not be advanced from two threads at once. Advance()
+// allocates nothing per step.
 template <typename T>
 class TledSolver {
  public:
@@ -163,8 +165,9 @@ class TledSolver {
   // "Subdomains"): three time levels over all layout dofs, of which the part
   // writes its own nodes' and reads its own and its halo's. Each node chunk
   // copies the lines of its nodes that another part reads into that part's
-  // next level, so the barrier ending the step publishes them; no line of a
-  // part's arrays is written by two cores.
+  // next level, so the barrier ending the step (free-running: the part's
+  // mark that its step is done) publishes them; no line of a part's arrays
+  // is written by two cores.
   struct PartLevels {
     AlignedVector<T> u_prev, u, u_next;
   };
