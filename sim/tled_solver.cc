@@ -297,13 +297,16 @@ void TledSolver<T>::RequestCutLines(int worker, int chunk) const {
 
 template <typename T>
 void TledSolver<T>::ElementChunk(int chunk, int ahead) {
-  // Forces (less the element loads) of every element at U.
-  const int begin = model_->chunk_block_begin(chunk), end = model_->chunk_block_begin(chunk + 1);
-  const T* u = RingLevel(element_chunk_part_[chunk], ahead, 1);
   chunk_min_J_[size_t(ahead % kFreeSteps) * element_chunks() + chunk] =
-      element_loads_.first
-          ? ComputeElementForcesLessLoads(*model_, u, element_loads_, element_forces_.data(), begin, end)
-          : ComputeElementForces(*model_, u, element_forces_.data(), begin, end);
+      ChunkElementForces(chunk, RingLevel(element_chunk_part_[chunk], ahead, 1));
+}
+
+template <typename T>
+T TledSolver<T>::ChunkElementForces(int chunk, const T* u) {
+  const int begin = model_->chunk_block_begin(chunk), end = model_->chunk_block_begin(chunk + 1);
+  return element_loads_.first
+             ? ComputeElementForcesLessLoads(*model_, u, element_loads_, element_forces_.data(), begin, end)
+             : ComputeElementForces(*model_, u, element_forces_.data(), begin, end);
 }
 
 template <typename T>
@@ -532,7 +535,10 @@ void TledSolver<T>::AdvanceFree(int total) {
           }
         }
       },
-      [&](int pass) { return FinishFreeSteps(steps_of(pass)); });
+      [&](int pass) {
+        FinishFreeSteps(steps_of(pass));
+        return true;
+      });
 }
 
 template <typename T>
@@ -589,7 +595,7 @@ bool TledSolver<T>::FreeStep(int part, int ahead, double fraction_end) {
 }
 
 template <typename T>
-bool TledSolver<T>::FinishFreeSteps(int steps) {
+void TledSolver<T>::FinishFreeSteps(int steps) {
   const long long stopped = progress_->stopped_at.value.load(std::memory_order_acquire);
   const int completed = stopped < internal_steps_ + steps ? static_cast<int>(stopped - internal_steps_ + 1) : steps;
   // The parts' arrays named for the state after the last completed step;
@@ -618,20 +624,11 @@ bool TledSolver<T>::FinishFreeSteps(int steps) {
   }
   // A stop comes from a step CheckStep throws for.
   DG_CHECK(completed == steps);
-  return true;
 }
 
 template <typename T>
 void TledSolver<T>::RecomputeInternalForces() {
-  for (int c = 0; c < element_chunks(); ++c) {
-    const int begin = model_->chunk_block_begin(c), end = model_->chunk_block_begin(c + 1);
-    const T* u_prev = levels_[element_chunk_part_[c]].u_prev.data();
-    if (element_loads_.first) {
-      ComputeElementForcesLessLoads(*model_, u_prev, element_loads_, element_forces_.data(), begin, end);
-    } else {
-      ComputeElementForces(*model_, u_prev, element_forces_.data(), begin, end);
-    }
-  }
+  for (int c = 0; c < element_chunks(); ++c) ChunkElementForces(c, levels_[element_chunk_part_[c]].u_prev.data());
   for (int a = 0; a < model_->num_nodes(); ++a) GatherNodalForce(*model_, element_forces_.data(), a, &internal_force_[3 * a]);
 }
 

@@ -197,6 +197,9 @@ class TledSolver {
   int element_chunks() const { return model_->element_chunks(); }
   int node_chunks() const { return static_cast<int>(chunk_constrained_begin_.size()) - 1; }
   void ElementChunk(int chunk, int ahead = 0);
+  // The forces (less the element loads) of element chunk `chunk` at
+  // displacements `u` into the force array; the chunk's smallest J.
+  T ChunkElementForces(int chunk, const T* u);
   // The update of the chunk's nodes; its prescribed dofs reach `fraction_end`
   // of the way from their begin to their end targets. `gathered`: the chunk's
   // nodal forces (3 per node, as GatherNodalForce sums them) if the caller
@@ -230,7 +233,7 @@ class TledSolver {
   // The serial end of a pass of `steps` free-running steps: the state moves
   // to the last step completed, and each step's reductions and checks run
   // as CheckStep's would, in order (so a stop throws there).
-  bool FinishFreeSteps(int steps);
+  void FinishFreeSteps(int steps);
   // Internal forces of the step that starts from the current U-, as that
   // step computed them: after a stop, for nodes whose part went on.
   void RecomputeInternalForces();
