@@ -12,6 +12,8 @@
 
 #include <catch2/catch.hpp>
 
+#include "io/gmsh_mesher.h"
+#include "tests/support/temporary_folder.h"
 #include "tools/bench/host_interruptions.h"
 #include "tools/bench/rounds.h"
 #include "tools/bench/sim_bench.h"
@@ -124,6 +126,43 @@ TEST_CASE("bench sim: a mesh and its shuffled copy are timed in the same rounds"
   CHECK(original.nothing_shared_tet_steps_per_s > 0);
   CHECK(records[0].speedup_over_1_thread == 1.0);
   CHECK(original.speedup_over_1_thread == Approx(original.tet_steps_per_s / records[2].tet_steps_per_s));
+}
+
+// A mesh file and boxes asked for beside it (`--mesh` with `--tets`): the
+// boxes are timed in the file's rounds, so the two share one sample of the
+// machine; the file, written from a generated box, is that box's mesh.
+TEST_CASE("bench sim: boxes beside a mesh file are timed in the file's rounds", "[tools][integration]") {
+  const testing::TemporaryFolder folder("bench_boxes_beside_file");
+  const std::string path = folder.File("box.msh");
+  io::WriteMsh(io::MeshBox({Eigen::Vector3d(0.05, 0.05, 0.05), 600}), path, 41);
+  SimBenchOptions options;
+  options.mesh_path = path;
+  options.tets = {600};
+  options.boxes_beside_file = true;
+  options.threads = {1, 2};
+  options.precisions = {sim::Precision::kFloat};
+  options.repeats = 3;
+  options.simulated_per_repeat_s = 0.004;
+  const std::vector<SimBenchRecord> records = RunSimBench(options, false);
+  REQUIRE(records.size() == 4);
+  const SimBenchRecord &file = records[1], &box = records[3];
+  CHECK(records[0].mesh == path);
+  CHECK(records[2].mesh == "Gmsh box");
+  CHECK(file.mesh == path);
+  CHECK(box.mesh == "Gmsh box");
+  CHECK(file.mesh_tets == box.mesh_tets);
+  CHECK(file.mesh_nodes == box.mesh_nodes);
+  CHECK(file.threads == 2);
+  CHECK(box.threads == 2);
+  CHECK(file.barrier_ns == box.barrier_ns);
+  CHECK(file.host.any_core_percent == box.host.any_core_percent);
+  CHECK(box.speedup_over_1_thread == Approx(box.tet_steps_per_s / records[2].tet_steps_per_s));
+  // Without the option the file is timed alone.
+  options.boxes_beside_file = false;
+  options.threads = {1};
+  const std::vector<SimBenchRecord> alone = RunSimBench(options, false);
+  REQUIRE(alone.size() == 1);
+  CHECK(alone[0].mesh == path);
 }
 
 // The share of a span the union of gap intervals covers: overlapping,

@@ -90,19 +90,20 @@ sim::TetMesh ShuffleNodes(const sim::TetMesh& mesh) {
 
 // The forward problems, in groups timed in the same rounds: each target
 // size's Gmsh box, or the given file, with its shuffled copy when asked (so
-// that the two orders are compared over the same minutes of the host).
+// that the two orders are compared over the same minutes of the host). Boxes
+// asked for beside a file join the file's group, for the same reason.
 std::vector<std::vector<BenchProblem>> ForwardProblems(const SimBenchOptions& options) {
+  const bool file = !options.mesh_path.empty();
   std::vector<std::pair<std::string, sim::TetMesh>> meshes;
-  if (!options.mesh_path.empty()) {
-    meshes.emplace_back(options.mesh_path, io::ReadGmsh(options.mesh_path));
-  } else {
+  if (file) meshes.emplace_back(options.mesh_path, io::ReadGmsh(options.mesh_path));
+  if (!file || options.boxes_beside_file) {
     for (int target : options.tets) {
       meshes.emplace_back("Gmsh box", io::MeshBox({Eigen::Vector3d(0.05, 0.05, 0.05), target}));
     }
   }
   std::vector<std::vector<BenchProblem>> groups;
   for (auto& [name, mesh] : meshes) {
-    std::vector<BenchProblem>& group = groups.emplace_back();
+    std::vector<BenchProblem>& group = file && !groups.empty() ? groups.back() : groups.emplace_back();
     if (options.shuffled_too) group.push_back(MakeBenchProblem(name + ", nodes shuffled", ShuffleNodes(mesh)));
     group.push_back(MakeBenchProblem(name, std::move(mesh)));
   }

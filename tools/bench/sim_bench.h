@@ -19,6 +19,9 @@ struct SimBenchOptions {
   // own node order: its lowest z face fixed, its highest pressed down.
   std::string mesh_path;
   bool shuffled_too = false;  // forward: also each mesh with its nodes in a random order
+  // forward with a file: also the generated boxes of `tets`, timed in the
+  // same rounds as the file, so that the two compare over the same minutes.
+  bool boxes_beside_file = false;
   std::vector<sim::Precision> precisions{sim::Precision::kFloat, sim::Precision::kDouble};
   // combined and volume: forward steps per level of recovered forces
   // (sim::CoupledOptions::inverse_interval_steps), each measured.

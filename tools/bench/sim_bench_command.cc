@@ -25,7 +25,9 @@ void AddSimBench(CLI::App& bench) {
       ->check(CLI::IsMember({"forward", "combined", "volume", "surface"}))
       ->capture_default_str();
   CLI::Option* tets =
-      sim->add_option("--tets", options->tets, "Target mesh sizes (phantom modes: 8000, the default phantom's)")
+      sim->add_option("--tets", options->tets,
+                      "Target mesh sizes (phantom modes: 8000, the default phantom's); with --mesh, generated "
+                      "boxes timed in the same rounds as the file")
           ->delimiter(',')
           ->capture_default_str();
   sim->add_option("--threads", options->threads, "Thread counts")->delimiter(',')->capture_default_str();
@@ -49,6 +51,7 @@ void AddSimBench(CLI::App& bench) {
     for (const std::string& name : *precisions) options->precisions.push_back(sim::ParsePrecision(name, "--precision"));
     const bool forward = std::find(options->modes.begin(), options->modes.end(), "forward") != options->modes.end();
     if (tets->count() == 0 && !forward) options->tets = {8000};
+    options->boxes_beside_file = !options->mesh_path.empty() && tets->count() > 0;
     PrintMachine();
     const std::vector<SimBenchRecord> records = RunSimBench(*options, true);
     PrintAndSave(SimBenchTable(records), *json_path, records, WriteSimBenchJson);
