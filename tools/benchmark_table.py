@@ -198,6 +198,16 @@ def solver_rows(t):
                   f"barrier {num(rs[1]['barrier_ns'])} ns{nothing_shared(rs[1])}{step_split(rs[1])}"
                   f"{core_speeds(rs[1])})", "",
                   "sim_mesh_file.json", rs)
+    pairs = series_pairs("sim_mesh_file_series.json")
+    if pairs:
+        ratios = [two["speedup_over_1_thread"] for _, two in pairs]
+        team = [two["tet_steps_per_s"] / two["nothing_shared_tet_steps_per_s"] for _, two in pairs]
+        shared = [two["nothing_shared_tet_steps_per_s"] / one["tet_steps_per_s"] for one, two in pairs]
+        t.add("TLED forward, 20k-tet mesh file, float, 2 / 1 threads, each run's own, over a series",
+              f"median {num(statistics.median(ratios), 4)}x ({num(min(ratios))}-{num(max(ratios))}) over "
+              f"{len(pairs)} runs, {sum(x >= 1.8 for x in ratios)} at 1.8x or more; two solvers sharing "
+              f"nothing {num(statistics.median(shared))}x, the team at {num(statistics.median(team))} of them "
+              f"(medians)", "1.8x", "sim_mesh_file_series.json", [pairs[0][1], pairs[-1][1]])
     r = pick("sim_memory.json", threads=2, mode="forward", precision="float")
     if r and r.get("resident_mb"):
         t.add("TLED forward, 20k-tet mesh file, float, 2 threads: resident memory while stepping",
@@ -221,6 +231,15 @@ def fps_spread(r):
     if lo is None or hi is None or not n or n < 2:
         return text
     return text + f" ({num(lo)}-{num(hi)} over {n} runs)"
+
+
+def series_pairs(name):
+    """The (1-thread, 2-thread) float records of each run of a series, in run order."""
+    runs = {}
+    for r in records(name):
+        if r.get("precision") == "float" and r.get("mode") == "forward" and "series_run" in r:
+            runs.setdefault(r["series_run"], {})[r["threads"]] = r
+    return [(run[1], run[2]) for _, run in sorted(runs.items()) if 1 in run and 2 in run]
 
 
 def pick_mesh_file(threads, source):
