@@ -68,6 +68,7 @@ SurfaceOverlay::SurfaceOverlay(const Options& options, const sim::TetMesh& mesh,
     first += s.mesh.num_vertices();
     render::TriangleMesh drawn;
     drawn.triangles = s.mesh.triangles;
+    drawn.front = render::SurfaceFront(s.mesh.vertices_m, s.mesh.triangles);
     if (!s.texture.empty()) {
       drawn.uvs = s.mesh.uvs.cast<float>();
       drawn.uvs.row(1) = 1 - drawn.uvs.row(1).array();  // the rasterizer's v runs down the image

@@ -93,11 +93,21 @@ void Rasterizer::SetUpTriangles(const TriangleMesh& mesh) {
   for (auto& block : blocks_) block.clear();
   const bool smooth = mesh.normals_C.cols() != 0;
   const bool has_uvs = mesh.uvs.cols() != 0;
+  const float facing = mesh.front == TriangleMesh::Front::kAlongNormal     ? 1.0f
+                       : mesh.front == TriangleMesh::Front::kAgainstNormal ? -1.0f
+                                                                           : 0.0f;
   tbb::parallel_for(0, num_blocks, [&](int b) {
     std::vector<ScreenTriangle>& out = blocks_[b];
     ClipPolygon polygon;
     const int end = std::min(num_triangles, (b + 1) * kSetupBlock);
     for (int t = b * kSetupBlock; t < end; ++t) {
+      if (facing != 0) {
+        // The eye at the origin sees the triangle's back: n . P0 > 0 for the outward n.
+        const Eigen::Vector3f p0 = mesh.positions_C.col(mesh.triangles(0, t));
+        const Eigen::Vector3f n = (mesh.positions_C.col(mesh.triangles(1, t)) - p0)
+                                      .cross(mesh.positions_C.col(mesh.triangles(2, t)) - p0);
+        if (facing * n.dot(p0) > 0) continue;
+      }
       std::array<ClipVertex, 3> corners;
       for (int k = 0; k < 3; ++k) {
         const int id = mesh.triangles(k, t);
