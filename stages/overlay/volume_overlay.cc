@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include <opencv2/imgproc.hpp>
 #include <tbb/parallel_for.h>
 
 #include "sim/error.h"
@@ -17,10 +18,40 @@ constexpr int kCutBlock = 256;  // elements per task; fixed, so the order never 
 constexpr int kLutFirstHu = -1024;
 constexpr std::array<std::array<int, 2>, 6> kEdges{{{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}}};
 
-const VolumeOverlay::Options& CheckedOptions(const VolumeOverlay::Options& options) {
+const VolumeOverlay::Options& CheckedOptions(const VolumeOverlay::Options& options, const LensView& view) {
   if (const std::string problem = options.Validate(); !problem.empty())
     throw Error("invalid volume overlay options: " + problem, "overlay options", "correct the scene's volume settings");
+  const int d = options.resolution_divisor;
+  if (view.pinhole().width % d != 0 || view.pinhole().height % d != 0) {
+    throw Error("resolution divisor " + std::to_string(d) + " does not divide the image's " +
+                    std::to_string(view.pinhole().width) + "x" + std::to_string(view.pinhole().height) + " pixels",
+                "volume overlay options", "choose a divisor of both the width and the height (1, 2 or 4 for 640x480)");
+  }
   return options;
+}
+
+// The camera that samples every d-th pixel's neighbourhood: pixel u' of it
+// covers the full camera's pixels d u' .. d u' + d - 1, its centre at
+// u = d u' + (d - 1) / 2, as PinholeCamera::Supersampled inverts; bilinear
+// resampling with pixel centres aligned (cv::resize) maps it back.
+render::PinholeCamera Reduced(const render::PinholeCamera& camera, int d) {
+  render::PinholeCamera reduced = camera;
+  reduced.fx = camera.fx / d;
+  reduced.fy = camera.fy / d;
+  reduced.cx = (camera.cx - (d - 1) / 2.0) / d;
+  reduced.cy = (camera.cy - (d - 1) / 2.0) / d;
+  reduced.width = camera.width / d;
+  reduced.height = camera.height / d;
+  return reduced;
+}
+
+// The full view's ray lengths, averaged over each reduced pixel's block.
+cv::Mat ReducedRayLength(const LensView& view, int d) {
+  const cv::Mat full = view.RayLengthPerDepth();
+  if (d == 1) return full;
+  cv::Mat reduced;
+  cv::resize(full, reduced, cv::Size(full.cols / d, full.rows / d), 0, 0, cv::INTER_AREA);
+  return reduced;
 }
 
 // The convex polygon where the plane z = z_cut meets an element, corners in
@@ -63,18 +94,20 @@ std::string VolumeOverlay::Options::Validate() const {
   if (!(slice_spacing_m > 1e-6 && slice_spacing_m < 0.1)) return "slice_spacing_m must be within (1 um, 10 cm)";
   if (!(opacity >= 0 && opacity <= 1)) return "opacity must be within [0, 1]";
   if (reserved_layers < 1) return "reserved_layers must be at least 1 (the layer being drawn)";
+  if (resolution_divisor < 1 || resolution_divisor > 8) return "resolution_divisor must be within [1, 8]";
   return {};
 }
 
 VolumeOverlay::VolumeOverlay(const Options& options, const sim::TetMesh& mesh, std::shared_ptr<const io::VolumeI16> ct,
                              const TransferFunction& transfer, const LensView& view)
-    : options_(CheckedOptions(options)),
+    : options_(CheckedOptions(options, view)),
       num_nodes_(mesh.num_nodes()),
       tets_(mesh.tets),
       ct_(std::move(ct)),
       view_(view),
-      ray_length_(view.RayLengthPerDepth()),
-      clipper_(view.pinhole(), kGuardBandPx) {
+      camera_(Reduced(view.pinhole(), options.resolution_divisor)),
+      ray_length_(ReducedRayLength(view, options.resolution_divisor)),
+      clipper_(camera_, kGuardBandPx) {
   if (const std::string problem = transfer.Validate(); !problem.empty())
     throw Error("invalid transfer function: " + problem, "volume overlay", "correct the scene's transfer function");
   if (!ct_ || ct_->size.minCoeff() < 2 || ct_->values.size() != ct_->num_voxels())
@@ -86,8 +119,9 @@ VolumeOverlay::VolumeOverlay(const Options& options, const sim::TetMesh& mesh, s
     const TransferFunction::Point p = transfer.At(static_cast<float>(kLutFirstHu + i));
     lut_[i] = {p.bgr[0], p.bgr[1], p.bgr[2], p.sigma_per_m};
   }
-  tiles_x_ = (view.pinhole().width + kTileSize - 1) / kTileSize;
-  tiles_y_ = (view.pinhole().height + kTileSize - 1) / kTileSize;
+  tiles_x_ = (camera_.width + kTileSize - 1) / kTileSize;
+  tiles_y_ = (camera_.height + kTileSize - 1) / kTileSize;
+  if (options_.resolution_divisor > 1) reduced_.create(camera_.height, camera_.width, CV_32FC4);
   bins_.resize(static_cast<size_t>(tiles_x_) * tiles_y_);
   layers_.Reserve(options_.reserved_layers, {view.pinhole().width, view.pinhole().height});
 }
@@ -97,23 +131,26 @@ OverlayLayer VolumeOverlay::Process(const Eigen::Matrix3Xd& nodes_S, std::int64_
     throw Error("node positions for " + std::to_string(nodes_S.cols()) + " nodes, the mesh has " +
                     std::to_string(num_nodes_),
                 "volume overlay, frame " + std::to_string(frame), "pass the simulation mesh's current node positions");
-  const render::PinholeCamera& camera = view_.pinhole();
-  OverlayLayer layer{layers_.Take({camera.width, camera.height}), frame};
-  layer.bgra.setTo(cv::Scalar::all(0));
+  const render::PinholeCamera& full = view_.pinhole();
+  OverlayLayer layer{layers_.Take({full.width, full.height}), frame};
+  cv::Mat& target = options_.resolution_divisor > 1 ? reduced_ : layer.bgra;
+  target.setTo(cv::Scalar::all(0));
   view_.ToView(nodes_S, &nodes_view_);
   // Slices at the centres of equal intervals over the mesh's depth in front of the near plane.
-  const double z_min = std::max(camera.near_m, nodes_view_.row(2).minCoeff());
+  const double z_min = std::max(camera_.near_m, nodes_view_.row(2).minCoeff());
   const double z_max = nodes_view_.row(2).maxCoeff();
   last_slices_ = 0;
   last_triangles_ = 0;
-  if (!(z_max > z_min)) return layer;
-  last_slices_ = std::max(1, static_cast<int>(std::ceil((z_max - z_min) / options_.slice_spacing_m)));
-  const double spacing = (z_max - z_min) / last_slices_;
-  CutElements(z_min, spacing, last_slices_);
-  BinTriangles();
-  tbb::parallel_for(0, tiles_x_ * tiles_y_, [&](int tile) {
-    if (!bins_[tile].empty()) CompositeTile(tile, static_cast<float>(spacing), &layer.bgra);
-  });
+  if (z_max > z_min) {
+    last_slices_ = std::max(1, static_cast<int>(std::ceil((z_max - z_min) / options_.slice_spacing_m)));
+    const double spacing = (z_max - z_min) / last_slices_;
+    CutElements(z_min, spacing, last_slices_);
+    BinTriangles();
+    tbb::parallel_for(0, tiles_x_ * tiles_y_, [&](int tile) {
+      if (!bins_[tile].empty()) CompositeTile(tile, static_cast<float>(spacing), &target);
+    });
+  }
+  if (options_.resolution_divisor > 1) cv::resize(reduced_, layer.bgra, layer.bgra.size(), 0, 0, cv::INTER_LINEAR);
   return layer;
 }
 
@@ -122,7 +159,7 @@ void VolumeOverlay::CutElements(double z_first, double spacing, int slices) {
   const int num_blocks = (num_tets + kCutBlock - 1) / kCutBlock;
   blocks_.resize(std::max<size_t>(blocks_.size(), num_blocks));
   for (auto& block : blocks_) block.clear();
-  const render::PinholeCamera& camera = view_.pinhole();
+  const render::PinholeCamera& camera = camera_;
   tbb::parallel_for(0, num_blocks, [&](int b) {
     std::vector<SliceTriangle>& out = blocks_[b];
     std::vector<render::ScreenTriangle> screen;

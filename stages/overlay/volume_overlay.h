@@ -42,6 +42,10 @@ class VolumeOverlay {
  public:
   struct Options {
     double slice_spacing_m = 0.5e-3;
+    // Drawn at 1/divisor of the camera's resolution per axis and resampled
+    // bilinearly to it (a volume's colour varies smoothly across the image:
+    // 2 costs a quarter of the samples). Divides the image's width and height.
+    int resolution_divisor = 1;
     float opacity = 1.0f;  // scales the whole layer
     // Layers allocated up front, as SurfaceOverlay::Options::reserved_layers.
     int reserved_layers = 1;
@@ -51,8 +55,9 @@ class VolumeOverlay {
 
   // ct: the CT phase whose geometry is the mesh's reference configuration
   // (scan frame); shared, not copied: a stereo run draws it once per eye.
-  // @throws dg::Error for invalid options or transfer function, or a CT
-  //   missing or smaller than 2 voxels along an axis.
+  // @throws dg::Error for invalid options or transfer function, a resolution
+  //   divisor that does not divide the image, or a CT missing or smaller than
+  //   2 voxels along an axis.
   VolumeOverlay(const Options& options, const sim::TetMesh& mesh, std::shared_ptr<const io::VolumeI16> ct,
                 const TransferFunction& transfer, const LensView& view);
 
@@ -90,7 +95,9 @@ class VolumeOverlay {
   std::shared_ptr<const io::VolumeI16> ct_;
   std::array<Classified, kLutSize> lut_;
   LensView view_;
-  cv::Mat ray_length_;  // per pixel, |ray| / z
+  render::PinholeCamera camera_;  // the view's pinhole at 1/resolution_divisor of its resolution
+  cv::Mat ray_length_;  // per pixel of camera_, |ray| / z
+  cv::Mat reduced_;     // CV_32FC4 at camera_'s size when resolution_divisor > 1, resampled into the layer
   render::FrustumClipper clipper_;
   int tiles_x_, tiles_y_;
 
