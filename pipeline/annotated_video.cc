@@ -1,7 +1,6 @@
 #include "pipeline/annotated_video.h"
 
-#include <cstdio>
-
+#include <fmt/format.h>
 #include <opencv2/imgproc.hpp>
 
 #include "sim/error.h"
@@ -25,19 +24,31 @@ void DrawTrackedPoints(const std::vector<stages::TrackedPoint>& points, bool rig
   }
 }
 
-// The frame's tracks and label, drawn on its picture.
-void DrawTracks(VideoLayout layout, AnnotatedVideo::Frame* frame) {
+void DrawLabel(const std::string& text, int baseline_y, cv::Mat& picture) {
+  cv::putText(picture, text, {8, baseline_y}, cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(0, 0, 0), 3, cv::LINE_AA);
+  cv::putText(picture, text, {8, baseline_y}, cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(255, 255, 255), 1, cv::LINE_AA);
+}
+
+// "layer age: texture 0, volume 0, meshes 0 frames" ("-" for an overlay with no layer).
+std::string AgeLabel(const std::vector<std::string>& names, const std::vector<std::int64_t>& ages) {
+  std::string label = "layer age:";
+  for (size_t k = 0; k < names.size() && k < ages.size(); ++k) {
+    label += fmt::format("{} {} {}", k == 0 ? "" : ",", names[k], ages[k] < 0 ? "-" : std::to_string(ages[k]));
+  }
+  return label + " frames";
+}
+
+// The frame's tracks and labels, drawn on its picture.
+void DrawTracks(VideoLayout layout, const std::vector<std::string>& age_labels, AnnotatedVideo::Frame* frame) {
   cv::Mat& picture = frame->picture;
   const cv::Size eye(layout == VideoLayout::kSideBySide ? picture.cols / 2 : picture.cols, picture.rows);
   DrawTrackedPoints(frame->points, false, picture(cv::Rect({0, 0}, eye)));
   if (layout == VideoLayout::kSideBySide) {
     DrawTrackedPoints(frame->points, true, picture(cv::Rect({eye.width, 0}, eye)));
   }
-  char label[128];
-  std::snprintf(label, sizeof label, "frame %lld  t %.3f s  %zu tracks", static_cast<long long>(frame->index),
-                frame->t_s, frame->points.size());
-  cv::putText(picture, label, {8, 20}, cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(0, 0, 0), 3, cv::LINE_AA);
-  cv::putText(picture, label, {8, 20}, cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(255, 255, 255), 1, cv::LINE_AA);
+  DrawLabel(fmt::format("frame {}  t {:.3f} s  {} tracks", frame->index, frame->t_s, frame->points.size()), 20,
+            picture);
+  if (!age_labels.empty()) DrawLabel(AgeLabel(age_labels, frame->layer_age_frames), 40, picture);
 }
 
 }  // namespace
@@ -66,9 +77,10 @@ void ArrangePicture(const FramePacket& packet, VideoLayout layout, cv::Mat* pict
 }
 
 AnnotatedVideo::AnnotatedVideo(const std::string& path, double fps, cv::Size eye_size, VideoLayout layout,
-                               Policy policy, int queue_frames)
+                               Policy policy, std::vector<std::string> age_labels, int queue_frames)
     : path_(path),
       layout_(layout),
+      age_labels_(std::move(age_labels)),
       policy_(policy),
       writer_(path, fps, LayoutSize(eye_size, layout), kJpegQuality),
       queue_(queue_frames) {}
@@ -100,6 +112,7 @@ void AnnotatedVideo::Add(const FramePacket& packet) {
   next_.points.assign(packet.tracks.points.begin(), packet.tracks.points.end());
   next_.index = packet.index;
   next_.t_s = packet.t_s;
+  if (!age_labels_.empty()) next_.layer_age_frames.assign(packet.layer_age_frames.begin(), packet.layer_age_frames.end());
   // Realtime never waits for the encoder; offline waits for room, so every frame is written.
   const bool queued = policy_ == Policy::kRealtime ? queue_.TryPush(next_) : queue_.Push(next_);
   if (!queued) ++dropped_;
@@ -109,7 +122,7 @@ void AnnotatedVideo::Encode() {
   Frame frame;
   try {
     while (queue_.Pop(frame)) {  // false once closed and drained
-      DrawTracks(layout_, &frame);
+      DrawTracks(layout_, age_labels_, &frame);
       writer_.Write(frame.picture);
       ++written_;
     }

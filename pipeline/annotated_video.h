@@ -30,7 +30,8 @@ void ArrangePicture(const FramePacket& packet, VideoLayout layout, cv::Mat* pict
 
 // The video a person watches after a run: the packet's picture in the run's
 // layout, with the tracked features drawn in each eye shown (corners green,
-// MSER regions orange) and the frame's number, time and track count. The
+// MSER regions orange), the frame's number, time and track count, and, when
+// asked, each overlay's layer age (frames since the state it was drawn from). The
 // caller (the graph's sink) only copies the picture and the tracks; drawing
 // and encoding happen on a thread of its own, off the graph's chain
 // (docs/design.md#threads), fed through a bounded blocking queue, so a slow
@@ -49,8 +50,10 @@ class AnnotatedVideo {
  public:
   // @throws dg::Error when the file cannot be opened for writing.
   // eye_size: one camera's frame size (the video is LayoutSize(eye_size, layout)).
+  // age_labels: the overlays' names, to label each frame with its layers'
+  // ages (packet.layer_age_frames) in that order; empty: no ages shown.
   AnnotatedVideo(const std::string& path, double fps, cv::Size eye_size, VideoLayout layout, Policy policy,
-                 int queue_frames = 8);
+                 std::vector<std::string> age_labels = {}, int queue_frames = 8);
   ~AnnotatedVideo();  // Close()s, logging instead of throwing
   AnnotatedVideo(const AnnotatedVideo&) = delete;
   AnnotatedVideo& operator=(const AnnotatedVideo&) = delete;
@@ -74,6 +77,7 @@ class AnnotatedVideo {
     std::vector<stages::TrackedPoint> points;
     std::int64_t index = 0;
     double t_s = 0;
+    std::vector<std::int64_t> layer_age_frames;  // only when the ages are shown
   };
 
  private:
@@ -81,6 +85,7 @@ class AnnotatedVideo {
 
   std::string path_;
   VideoLayout layout_;
+  std::vector<std::string> age_labels_;
   Policy policy_;
   MjpegAviWriter writer_;
   BoundedQueue<Frame> queue_;

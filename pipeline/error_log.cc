@@ -41,6 +41,15 @@ std::vector<io::H5Column> ErrorColumns(int surface_points, int internal_points, 
                            "surface_max_mm", "internal_mean_mm", "internal_rms_mm", "internal_max_mm"}) {
     columns.push_back({name, H5Type::kDouble});
   }
+  // The overlay as composed: the layer's age, and the figures as the layer shows them (NaN without a layer).
+  for (const char* name : {"surface_layer_age_frames", "internal_layer_age_frames"}) {
+    columns.push_back({name, H5Type::kInt64});
+  }
+  for (const char* name : {"shown_surface_mean_px", "shown_surface_rms_px", "shown_surface_max_px",
+                           "shown_surface_mean_mm", "shown_surface_rms_mm", "shown_surface_max_mm",
+                           "shown_internal_mean_mm", "shown_internal_rms_mm", "shown_internal_max_mm"}) {
+    columns.push_back({name, H5Type::kDouble});
+  }
   // A zero-width column is not allowed: one zero stands in for none.
   columns.push_back({"surface_mm", H5Type::kDouble, static_cast<std::size_t>(std::max(1, surface_points))});
   columns.push_back({"internal_mm", H5Type::kDouble, static_cast<std::size_t>(std::max(1, internal_points))});
@@ -80,9 +89,25 @@ ErrorLog::Truth ErrorLog::ReadTruth(const std::string& truth_h5) {
   return truth;
 }
 
+namespace {
+
+// The index of the first of `wanted` among the overlays, or -1.
+int OverlayIndex(const std::vector<std::string>& names, std::initializer_list<const char*> wanted) {
+  for (const char* name : wanted) {
+    const auto found = std::find(names.begin(), names.end(), name);
+    if (found != names.end()) return static_cast<int>(found - names.begin());
+  }
+  return -1;
+}
+
+}  // namespace
+
 ErrorLog::ErrorLog(io::RunLog& log, const std::string& truth_h5, const sim::TetMesh& mesh,
-                   const io::CameraCalibration& left, stages::FiducialMotion scan)
-    : truth_(ReadTruth(truth_h5)),
+                   const io::CameraCalibration& left, stages::FiducialMotion scan,
+                   const std::vector<std::string>& overlay_names)
+    : surface_layer_(OverlayIndex(overlay_names, {"texture"})),
+      internal_layer_(OverlayIndex(overlay_names, {"meshes", "volume"})),
+      truth_(ReadTruth(truth_h5)),
       table_(log.AddTable("/errors", ErrorColumns(truth_.surface.count, truth_.internal.count, truth_.fiducials.count))),
       left_(left),
       scan_(std::move(scan)),
@@ -145,9 +170,24 @@ void ErrorLog::Consume(const FramePacket& packet) {
     if (values->empty()) values->push_back(0);  // a zero-width column is not allowed: one zero stands in
   }
 
+  // The overlay as composed: each layer is drawn from its frame's own state
+  // (pipeline/overlay_stages.h), so where it was composed at age 0 it shows
+  // the figures above; a frame composed without it shows nothing.
+  const auto age = [&](int layer) -> std::int64_t {
+    return layer >= 0 && static_cast<size_t>(layer) < packet.layer_age_frames.size() ? packet.layer_age_frames[layer]
+                                                                                    : -1;
+  };
+  const std::int64_t surface_age = age(surface_layer_), internal_age = age(internal_layer_);
+  DG_CHECK(surface_age <= 0 && internal_age <= 0);  // a layer of another frame's state would need that state here
+  const double none = std::numeric_limits<double>::quiet_NaN();
+  const auto shown = [none](std::int64_t layer_age, double value) { return layer_age == 0 ? value : none; };
+
   table_.AppendRow({packet.index, packet.t_s, static_cast<std::int32_t>(surface.points.size()), px.mean, px.rms,
-                    px.max, mm.mean, mm.rms, mm.max, internal.mean, internal.rms, internal.max, surface_mm, internal_mm,
-                    fiducial_sim_mm, fiducial_model_mm});
+                    px.max, mm.mean, mm.rms, mm.max, internal.mean, internal.rms, internal.max, surface_age,
+                    internal_age, shown(surface_age, px.mean), shown(surface_age, px.rms), shown(surface_age, px.max),
+                    shown(surface_age, mm.mean), shown(surface_age, mm.rms), shown(surface_age, mm.max),
+                    shown(internal_age, internal.mean), shown(internal_age, internal.rms),
+                    shown(internal_age, internal.max), surface_mm, internal_mm, fiducial_sim_mm, fiducial_model_mm});
 }
 
 }  // namespace dg::pipeline

@@ -34,16 +34,27 @@ namespace dg::pipeline {
 //            the scan's own motion model (its per-phase positions
 //            interpolated linearly and cyclically at the registered phase),
 //            fiducial_model_mm.
+//   the overlay as composed (what the surgeon sees): the ages of the layers
+//            the surface and internal figures are read from (the texture
+//            overlay's; the meshes', else the volume's; -1 where the frame
+//            was composed without it, or the run has no such overlay),
+//            surface_layer_age_frames and internal_layer_age_frames, and the
+//            figures above as that layer shows them, shown_surface_*_{px,mm}
+//            and shown_internal_*_mm (NaN without the layer). Every layer is
+//            drawn from its own frame's state, so a composed layer's figures
+//            are the state's.
 // Each row also has frame and t_s. Means and RMS are over the frame's points:
 // a run's figures weigh frames by their point counts (sum = mean * count).
 class ErrorLog {
  public:
   // truth_h5: `dynaguide phantom`'s truth.h5. left: the left camera
-  // (original pixels). scan: the scan's fiducials per phase (empty without a scan).
+  // (original pixels). scan: the scan's fiducials per phase (empty without a
+  // scan). overlay_names: the run's overlays in drawing order (the order of
+  // packet.layer_age_frames).
   // @throws dg::Error for a truth file without the points' datasets, or a
   // scan whose fiducials are not the truth's.
   ErrorLog(io::RunLog& log, const std::string& truth_h5, const sim::TetMesh& mesh, const io::CameraCalibration& left,
-           stages::FiducialMotion scan);
+           stages::FiducialMotion scan, const std::vector<std::string>& overlay_names);
 
   // A frame with a simulation and a registration gets a row; others none.
   // @throws dg::Error for a frame beyond the truth's.
@@ -64,6 +75,7 @@ class ErrorLog {
   };
   static Truth ReadTruth(const std::string& truth_h5);
 
+  int surface_layer_, internal_layer_;  // the overlays the shown figures are read from (-1: none)
   Truth truth_;
   io::H5Table& table_;
   io::CameraCalibration left_;

@@ -8,6 +8,7 @@
 #include <opencv2/core.hpp>
 
 #include "stages/constraints/constraint_mapper.h"
+#include "stages/overlay/overlay_layer.h"
 #include "stages/rectify.h"
 #include "stages/register/phase_estimate.h"
 #include "stages/stereo_frame.h"
@@ -67,12 +68,19 @@ struct FramePacket {
   stages::PhaseEstimate phase;
   stages::NodeTargets targets;  // constraint mapping's, for the FEM stage
   // The FEM stage's node positions and record; null before the simulation
-  // starts (at the first registered frame). Shared with the overlays, which
-  // may still draw it after the packet is reused.
+  // starts (at the first registered frame). Shared with the sinks that keep
+  // it after the packet is reused.
   std::shared_ptr<const stages::FemFrameOutput> simulation;
-  cv::Mat composite;  // the video frame with the overlays' newest layers (BGR); empty without overlays
+  // Per overlay, in drawing order: the layer drawn from this frame's own
+  // simulation through the left (and, in a stereo run, the right) eye; empty
+  // layers before the simulation starts. The pixels belong to the overlay's
+  // pool, which reuses them once the packet lets go (ResetFor).
+  std::vector<stages::overlay::OverlayLayer> layers, layers_right;
+  // Per overlay: when its draw (both eyes) started and ended, steady clock.
+  std::vector<std::int64_t> draw_start_steady_ns, draw_end_steady_ns;
+  cv::Mat composite;  // the video frame with the overlays' layers (BGR); empty without overlays
   cv::Mat composite_right;  // the same over the right frame, drawn through the right eye; only in a stereo run
-  std::vector<std::int64_t> layer_age_frames;  // per overlay: frames since its layer's geometry; -1 none yet
+  std::vector<std::int64_t> layer_age_frames;  // per overlay: frames since its layer's geometry; -1 none
 
   std::array<StageTiming, kMaxStages> timings;
   int timing_count = 0;
@@ -85,6 +93,9 @@ struct FramePacket {
     registration_solve.reset();
     phase = {};
     simulation.reset();
+    // Hands the layers' pixels back to their pools; the vectors keep their size.
+    for (auto& layer : layers) layer = {};
+    for (auto& layer : layers_right) layer = {};
   }
 };
 

@@ -1,42 +1,62 @@
 #include "pipeline/overlay_log.h"
 
+#include <algorithm>
+
+#include <fmt/format.h>
+
+#include "sim/statistics.h"
+
 namespace dg::pipeline {
 
-OverlayLog::OverlayLog(io::RunLog& log, std::vector<std::shared_ptr<OverlayBranch>> overlays)
+std::string OverlaySummary::Text(double wall_s) const {
+  if (composed_frames == 0) return "overlays: no frame was simulated, so none was drawn\n";
+  return fmt::format(
+      "overlays: {} of {} simulated frames composed with every overlay's layer; layer age median {} / max {} "
+      "frames; {:.1f} overlay frames/s ({} draws per overlay in {:.2f} s)\n",
+      frames_with_layers, composed_frames, age_median_frames, age_max_frames, draws / std::max(wall_s, 1e-9), draws,
+      wall_s);
+}
+
+OverlayLog::OverlayLog(io::RunLog& log, std::vector<std::string> overlay_names)
     : log_(log),
-      overlays_(std::move(overlays)),
+      names_(std::move(overlay_names)),
       ages_(log.AddTable("/composite", {{"frame", io::H5Type::kInt64},
-                                        {"layer_age_frames", io::H5Type::kInt64, overlays_.size()}})),
-      composed_(overlays_.size(), false) {
+                                        {"layer_age_frames", io::H5Type::kInt64, names_.size()}})),
+      frames_with_layer_(names_.size(), 0),
+      drawn_(names_.size(), 0) {
   std::string names;
-  for (const auto& overlay : overlays_) names += (names.empty() ? "" : ",") + overlay->name();
+  for (const std::string& name : names_) names += (names.empty() ? "" : ",") + name;
   log_.file().WriteAttribute("/composite", "overlay_names", names);
 }
 
 void OverlayLog::Consume(const FramePacket& packet) {
-  if (packet.layer_age_frames.size() != overlays_.size()) return;  // not composed (the run stopped early)
+  if (packet.layer_age_frames.size() != names_.size()) return;  // not composed (the run stopped early)
   ages_.AppendRow({packet.index, packet.layer_age_frames});
-  any_frame_ = true;
-  for (size_t k = 0; k < overlays_.size(); ++k) composed_[k] = composed_[k] || packet.layer_age_frames[k] >= 0;
-}
-
-std::string OverlayLog::MissingOverlays() const {
-  if (!any_frame_) return {};
-  std::string missing;
-  for (size_t k = 0; k < overlays_.size(); ++k) {
-    if (composed_[k]) continue;
-    const OverlayBranch& overlay = *overlays_[k];
-    missing += (missing.empty() ? "" : "; ") + overlay.name() + " (geometry handed over " +
-               std::to_string(overlay.published()) + " times, drawn " + std::to_string(overlay.drawn()) + " times)";
+  for (size_t k = 0; k < names_.size(); ++k) {
+    if (packet.draw_end_steady_ns[k] != 0) {
+      draws_.push_back({packet.index, static_cast<std::int32_t>(k), packet.draw_start_steady_ns[k],
+                        packet.draw_end_steady_ns[k]});
+      ++drawn_[k];
+    }
   }
-  if (missing.empty()) return {};
-  // Overlays draw beside the chain of frames at their own pace and never hold
-  // it (SideBranch, pipeline/stage_graph.h): offline, a short simulated range
-  // can end before a drawing does.
-  return "no layer of " + missing + " reached the video: each drawing finished after the last frame was composed";
+  if (!packet.simulation) return;
+  ++summary_.composed_frames;
+  for (size_t k = 0; k < names_.size(); ++k) {
+    const std::int64_t age = packet.layer_age_frames[k];
+    if (age < 0) continue;
+    ++frames_with_layer_[k];
+    shown_ages_.push_back(age);
+  }
 }
 
 void OverlayLog::Finish(std::int64_t start_steady_ns) {
+  summary_.frames_with_layers = *std::min_element(frames_with_layer_.begin(), frames_with_layer_.end());
+  summary_.draws = *std::min_element(drawn_.begin(), drawn_.end());
+  if (!shown_ages_.empty()) {
+    const std::vector<double> ages(shown_ages_.begin(), shown_ages_.end());
+    summary_.age_median_frames = static_cast<std::int64_t>(sim::Median(ages));
+    summary_.age_max_frames = *std::max_element(shown_ages_.begin(), shown_ages_.end());
+  }
   // A log that could not be written (a full disk) takes no more: its error says why.
   if (log_.write_failed()) return;
   using io::H5Type;
@@ -44,19 +64,14 @@ void OverlayLog::Finish(std::int64_t start_steady_ns) {
                                                            {"overlay", H5Type::kInt32},
                                                            {"start_ns", H5Type::kInt64},
                                                            {"end_ns", H5Type::kInt64}});
-  for (size_t k = 0; k < overlays_.size(); ++k) {
-    const OverlayBranch& overlay = *overlays_[k];
-    for (const OverlayTiming& t : overlay.timings()) {
-      table.AppendRow({t.frame, static_cast<std::int32_t>(k), t.start_steady_ns - start_steady_ns,
-                       t.end_steady_ns - start_steady_ns});
-    }
-    const std::string& name = overlay.name();
-    log_.file().WriteAttribute("/overlay_timings", name + "_published", overlay.published());
-    log_.file().WriteAttribute("/overlay_timings", name + "_dropped", static_cast<std::int64_t>(overlay.dropped()));
-    log_.file().WriteAttribute("/overlay_timings", name + "_drawn", overlay.drawn());
+  for (const Draw& draw : draws_) {
+    table.AppendRow({draw.frame, draw.overlay, draw.start_steady_ns - start_steady_ns,
+                     draw.end_steady_ns - start_steady_ns});
   }
   table.Flush();
-  log_.file().WriteAttribute("/composite", "missing_overlays", MissingOverlays());
+  for (size_t k = 0; k < names_.size(); ++k) {
+    log_.file().WriteAttribute("/overlay_timings", names_[k] + "_drawn", drawn_[k]);
+  }
 }
 
 }  // namespace dg::pipeline

@@ -1,9 +1,10 @@
 #include "pipeline/overlay_stages.h"
 
 #include <algorithm>
-#include <array>
 #include <chrono>
-#include <span>
+
+#include <fmt/format.h>
+#include <tbb/parallel_for.h>
 
 #include <opencv2/imgcodecs.hpp>
 
@@ -35,21 +36,25 @@ OverlayDraw DrawWith(std::shared_ptr<Overlay> overlay) {
   return [overlay](const Eigen::Matrix3Xd& nodes_S, std::int64_t frame) { return overlay->Process(nodes_S, frame); };
 }
 
-OverlayFactory MeshesFactory(const io::Scene& scene, std::shared_ptr<const SimulationSetup> setup) {
+OverlayFactory MeshesFactory(const io::Scene& scene, std::shared_ptr<const SimulationSetup> setup,
+                             const OverlayQuality& quality) {
   const std::vector<overlay::OverlaySurface> surfaces = InternalMeshSurfaces(*scene.overlays);
   for (const overlay::OverlaySurface& surface : surfaces) CheckOverlayMeshSize(scene, surface.name, surface.mesh, setup->mesh);
   return [=](const overlay::LensView& view, int layers_alive) {
     overlay::SurfaceOverlay::Options options;
+    options.supersample = quality.surface_supersample;
     options.reserved_layers = layers_alive;
     return DrawWith(std::make_shared<overlay::SurfaceOverlay>(options, setup->mesh, surfaces, view));
   };
 }
 
-OverlayFactory TextureFactory(const io::Scene& scene, std::shared_ptr<const SimulationSetup> setup) {
+OverlayFactory TextureFactory(const io::Scene& scene, std::shared_ptr<const SimulationSetup> setup,
+                              const OverlayQuality& quality) {
   const overlay::OverlaySurface surface = TexturedSurface(*scene.overlays);
   CheckOverlayMeshSize(scene, surface.name, surface.mesh, setup->mesh);
   overlay::SurfaceOverlay::Options options;
   options.lit = false;  // landmarks and annotations in their own colours
+  options.supersample = quality.surface_supersample;
   return [=](const overlay::LensView& view, int layers_alive) {
     overlay::SurfaceOverlay::Options reserved = options;
     reserved.reserved_layers = layers_alive;
@@ -57,11 +62,13 @@ OverlayFactory TextureFactory(const io::Scene& scene, std::shared_ptr<const Simu
   };
 }
 
-OverlayFactory VolumeFactory(const std::string& ct_file, std::shared_ptr<const SimulationSetup> setup) {
+OverlayFactory VolumeFactory(const std::string& ct_file, std::shared_ptr<const SimulationSetup> setup,
+                             const OverlayQuality& quality) {
   // The first scan phase is the mesh's reference configuration.
   auto ct = std::make_shared<const io::VolumeI16>(io::ReadMetaImage<std::int16_t>(ct_file));
   overlay::VolumeOverlay::Options options;
-  options.slice_spacing_m = 1e-3;  // above 15 frames/s on two cores (docs/benchmarks.md, bench overlay)
+  options.slice_spacing_m = quality.volume_slice_spacing_m;
+  options.resolution_divisor = quality.volume_resolution_divisor;
   return [=](const overlay::LensView& view, int layers_alive) {
     overlay::VolumeOverlay::Options reserved = options;
     reserved.reserved_layers = layers_alive;
@@ -95,60 +102,76 @@ overlay::OverlaySurface TexturedSurface(const io::Scene::Overlays& assets) {
   return surface;
 }
 
-OverlayBranch::OverlayBranch(std::string name, int index, OverlayFactory factory, OverlayEyes eyes,
-                             const OverlayBranchOptions& options)
-    : name_(std::move(name)),
-      index_(index),
-      factory_(std::move(factory)),
-      eyes_(std::move(eyes)),
-      // An eye's layers alive at once: the one being drawn, the mailbox's, and one per frame composing.
-      layers_alive_(2 + options.composites_in_flight),
-      ring_(options.ring_capacity) {
-  if (options.composites_in_flight < 1) {
-    throw Error("composites in flight " + std::to_string(options.composites_in_flight) + " is below 1",
-                "overlay '" + name_ + "'", "give the graph's packets in flight");
+OverlaysAdapter::OverlaysAdapter(const Options& options, std::vector<std::string> names,
+                                 std::vector<OverlayFactory> factories)
+    : options_(options), names_(std::move(names)), factories_(std::move(factories)) {
+  if (names_.size() != factories_.size()) {
+    throw Error(std::to_string(names_.size()) + " overlay names for " + std::to_string(factories_.size()) +
+                    " drawings",
+                "overlays stage", "give one name per overlay (PlanOverlays)");
   }
-  if (options.T_C_S) BuildEyes(*options.T_C_S);
+  if (options_.layers_alive < 1) {
+    throw Error("layers alive " + std::to_string(options_.layers_alive) + " is below 1", "overlays stage",
+                "give the graph's packets in flight");
+  }
+  if (options_.T_C_S) BuildDrawings(*options_.T_C_S);
 }
 
-void OverlayBranch::BuildEyes(const Eigen::Isometry3d& T_C_S) {
-  drawing_.push_back({factory_(overlay::LensView(eyes_.calibration.left, T_C_S), layers_alive_), eyes_.left, {}});
-  if (eyes_.right) {
-    drawing_.push_back({factory_(overlay::RightLensView(eyes_.calibration, T_C_S), layers_alive_), eyes_.right, {}});
+void OverlaysAdapter::BuildDrawings(const Eigen::Isometry3d& T_C_S) {
+  const overlay::LensView left(options_.calibration.left, T_C_S);
+  std::optional<overlay::LensView> right;
+  if (options_.right_eye) right.emplace(overlay::RightLensView(options_.calibration, T_C_S));
+  for (const OverlayFactory& factory : factories_) {
+    std::array<OverlayDraw, 2>& eyes = drawings_.emplace_back();
+    eyes[0] = factory(left, options_.layers_alive);
+    if (right) eyes[1] = factory(*right, options_.layers_alive);
   }
 }
 
-void OverlayBranch::Publish(const FramePacket& packet) {
-  if (!packet.simulation || !packet.registration) return;
-  Geometry geometry{packet.simulation, packet.registration, packet.index};
-  ++published_;
-  ring_.PushOrDrop(geometry);
-  Wake();
+void OverlaysAdapter::Process(FramePacket& packet) {
+  const size_t count = factories_.size();
+  packet.layers.resize(count);
+  packet.draw_start_steady_ns.assign(count, 0);
+  packet.draw_end_steady_ns.assign(count, 0);
+  if (options_.right_eye) packet.layers_right.resize(count);
+  if (!packet.simulation || !packet.registration) return;  // nothing simulated yet: the frame as it is
+  if (drawings_.empty()) BuildDrawings(Eigen::Isometry3d(packet.registration->T_C_S));
+  const Eigen::Matrix3Xd& nodes_S = packet.simulation->nodes_S_m;
+  // The overlays side by side: each one's serial set-up (embedding, cutting,
+  // binning) fills the gaps in the others' tiles. Each drawing is its own
+  // object, drawn by one task at a time, and its pixels never depend on the
+  // threads, so neither does the frame.
+  tbb::parallel_for(std::size_t{0}, count, [&](std::size_t k) {
+    packet.draw_start_steady_ns[k] = SteadyNowNs();
+    packet.layers[k] = drawings_[k][0](nodes_S, packet.index);
+    if (options_.right_eye) packet.layers_right[k] = drawings_[k][1](nodes_S, packet.index);
+    packet.draw_end_steady_ns[k] = SteadyNowNs();
+  });
 }
 
-void OverlayBranch::Drain() {
-  // One draw of the newest geometry, then the turn passes to the next branch
-  // (geometries arriving meanwhile wake this one again).
-  Geometry geometry;
-  if (!ring_.TryPopLatest(geometry)) return;
-  const std::int64_t start = SteadyNowNs();
-  if (drawing_.empty()) BuildEyes(Eigen::Isometry3d(geometry.registration->T_C_S));
-  // Both eyes drawn before either is offered, so the eyes' composites show the same geometry.
-  for (Eye& eye : drawing_) eye.layer = eye.draw(geometry.simulation->nodes_S_m, geometry.frame);
-  for (Eye& eye : drawing_) eye.latest->Offer(index_, std::move(eye.layer));
-  ++drawn_;
-  std::lock_guard lock(timings_mutex_);
-  timings_.push_back({geometry.frame, start, SteadyNowNs()});
+std::string OverlayQuality::Validate() const {
+  if (surface_supersample < 1 || surface_supersample > 4) return "the surfaces' supersampling must be within [1, 4]";
+  if (!(volume_slice_spacing_m >= 1e-4 && volume_slice_spacing_m <= 1e-2)) {
+    return "the volume's slice spacing must be within [0.1, 10] mm";
+  }
+  if (volume_resolution_divisor < 1 || volume_resolution_divisor > 8) {
+    return "the volume's resolution divisor must be within [1, 8]";
+  }
+  return {};
 }
 
-std::vector<OverlayTiming> OverlayBranch::timings() const {
-  std::lock_guard lock(timings_mutex_);
-  return timings_;
+std::string OverlayQuality::Describe() const {
+  return fmt::format("surfaces at {} sample(s) per pixel per axis, the CT volume at 1/{} resolution in {:.2g} mm slices",
+                     surface_supersample, volume_resolution_divisor, volume_slice_spacing_m * 1e3);
 }
 
-OverlayPlan PlanOverlays(const io::Scene& scene, std::shared_ptr<const SimulationSetup> setup) {
+OverlayPlan PlanOverlays(const io::Scene& scene, std::shared_ptr<const SimulationSetup> setup,
+                         const OverlayQuality& quality) {
   OverlayPlan plan;
   if (!scene.overlays) return plan;
+  if (const std::string wrong = quality.Validate(); !wrong.empty()) {
+    throw Error("invalid overlay quality: " + wrong, scene.path, "correct --supersample, --volume-divisor or --volume-slice-mm");
+  }
   const io::Scene::Overlays& assets = *scene.overlays;
   const bool has_texture = !assets.surface_mesh.empty() && !assets.surface_texture.empty();
   const bool has_volume = scene.preoperative && !scene.preoperative->ct_volumes.empty();
@@ -171,42 +194,27 @@ OverlayPlan PlanOverlays(const io::Scene& scene, std::shared_ptr<const Simulatio
     }
     if (name == "texture") {
       plan.compositor.layers.push_back({name, overlay::BlendMode::kAlpha});
-      plan.factories.push_back(TextureFactory(scene, setup));
+      plan.factories.push_back(TextureFactory(scene, setup, quality));
     } else if (name == "volume") {
       plan.compositor.layers.push_back({name, anatomy_blend});
-      plan.factories.push_back(VolumeFactory(scene.preoperative->ct_volumes.front(), setup));
+      plan.factories.push_back(VolumeFactory(scene.preoperative->ct_volumes.front(), setup, quality));
     } else {
       plan.compositor.layers.push_back({name, anatomy_blend});
-      plan.factories.push_back(MeshesFactory(scene, setup));
+      plan.factories.push_back(MeshesFactory(scene, setup, quality));
     }
   }
   return plan;
 }
 
-CompositeAdapter::CompositeAdapter(std::shared_ptr<const overlay::Compositor> compositor,
-                                   std::shared_ptr<const LatestLayers> left, std::shared_ptr<const LatestLayers> right)
-    : compositor_(std::move(compositor)), left_(std::move(left)), right_(std::move(right)) {
-  const int entries = static_cast<int>(compositor_->options().layers.size());
-  for (const LatestLayers* eye : {left_.get(), right_.get()}) {
-    if (eye && eye->overlays() != entries) {
-      throw Error("an eye's newest layers hold " + std::to_string(eye->overlays()) + " overlays, the compositor composes " +
-                      std::to_string(entries),
-                  "composite stage", "build the eyes' mailboxes from the compositor's options");
-    }
-  }
-}
+CompositeAdapter::CompositeAdapter(std::shared_ptr<const overlay::Compositor> compositor, bool right_eye)
+    : compositor_(std::move(compositor)), right_eye_(right_eye) {}
 
 void CompositeAdapter::Process(FramePacket& packet) {
-  // On the stack: the frame allocates nothing here. The headers share the
-  // layers' pixels, which keeps them alive while this frame composes.
-  std::array<overlay::OverlayLayer, overlay::CompositorOptions::kMaxLayers> held;
-  const std::span<overlay::OverlayLayer> layers(held.data(), compositor_->options().layers.size());
-  left_->Take(layers);
-  compositor_->Compose(packet.raw.left, packet.index, layers, &packet.composite, &packet.layer_age_frames);
-  if (!right_) return;
-  // The right eye's ages are not logged: its layers come from the same draws as the left's.
-  right_->Take(layers);
-  compositor_->Compose(packet.raw.right, packet.index, layers, &packet.composite_right, nullptr);
+  // The overlays stage sized the lists to the compositor's entries, empty layers included.
+  compositor_->Compose(packet.raw.left, packet.index, packet.layers, &packet.composite, &packet.layer_age_frames);
+  // The right eye's ages are not logged: its layers come from the same frame's state as the left's.
+  if (right_eye_) compositor_->Compose(packet.raw.right, packet.index, packet.layers_right, &packet.composite_right,
+                                       nullptr);
 }
 
 }  // namespace dg::pipeline

@@ -1,10 +1,9 @@
 #pragma once
 
-#include <atomic>
+#include <array>
 #include <cstdint>
 #include <functional>
 #include <memory>
-#include <mutex>
 #include <optional>
 #include <string>
 #include <vector>
@@ -13,23 +12,19 @@
 
 #include "io/calibration.h"
 #include "io/scene.h"
-#include "pipeline/latest_layers.h"
 #include "pipeline/packet_stage.h"
 #include "pipeline/simulation_stages.h"
-#include "pipeline/spsc_ring.h"
-#include "pipeline/stage_graph.h"
 #include "stages/overlay/compositor.h"
 #include "stages/overlay/surface_overlay.h"
 
 namespace dg::pipeline {
 
-// The overlays of a run (paper section 2.7): each one a
-// side branch fed by the FEM stage through its own SPSC ring, drawing the
-// newest geometry at its own pace and handing its layer to its eye's
-// newest-layer mailbox (pipeline/latest_layers.h); the composite stage lays
-// the newest layers over each video frame. A stereo run (side-by-side video)
-// has a mailbox per eye, and each branch draws both eyes; a left-only run
-// draws and composes the left eye alone.
+// The overlays of a run (paper section 2.7), in the frame's own path: the
+// overlays stage draws every overlay from the frame's simulated state, and
+// the composite stage lays those layers over the same frame, so that what is
+// shown is the anatomy as it is in the frame it lies over, in both policies
+// (docs/design.md#overlays). A stereo run (side-by-side video) draws and
+// composes both eyes; a left-only run the left eye alone.
 
 // Draws one frame's layer from the simulated nodes (scan frame).
 using OverlayDraw = std::function<stages::overlay::OverlayLayer(const Eigen::Matrix3Xd& nodes_S, std::int64_t frame)>;
@@ -39,77 +34,58 @@ using OverlayDraw = std::function<stages::overlay::OverlayLayer(const Eigen::Mat
 // most that are ever alive at once), so that drawing allocates none.
 using OverlayFactory = std::function<OverlayDraw(const stages::overlay::LensView& view, int layers_alive)>;
 
-// Where the overlays' layers go: each eye's newest-layer mailbox, shared by
-// every branch and the composite stage (the right one only in a stereo run),
-// and the calibration the lenses are built from.
-struct OverlayEyes {
-  io::StereoCalibration calibration;
-  std::shared_ptr<LatestLayers> left;
-  std::shared_ptr<LatestLayers> right;  // null: the left eye alone
-};
-
-struct OverlayBranchOptions {
-  std::size_t ring_capacity = 2;  // geometries waiting (more are dropped and counted)
-  // Frames the composite stage composes at once (the graph's packets in
-  // flight), each holding a layer of every overlay until it is composed.
-  int composites_in_flight = 2;
-  // The registered pose, when the scene gives it: the overlays are built with
-  // the branch, before the first frame, rather than at the first draw.
-  std::optional<Eigen::Isometry3d> T_C_S;
-};
-
-// When an overlay drew a frame (steady clock), for the run log's /overlay_timings.
-struct OverlayTiming {
-  std::int64_t frame = 0;
-  std::int64_t start_steady_ns = 0, end_steady_ns = 0;
-};
-
-class OverlayBranch final : public SideBranch {
+// overlays: packet.simulation (+ registration) -> packet.layers (and
+// packet.layers_right in a stereo run), one per overlay in drawing order,
+// each drawn from this frame's nodes, with each draw's span in
+// packet.draw_{start,end}_steady_ns. Before the simulation starts the layers
+// are empty. Stateful: a drawing reuses its buffers (one call at a time),
+// and the drawings are built at the first registered frame.
+class OverlaysAdapter final : public PacketStage {
  public:
-  // index: the overlay's entry in the compositor's options (and the eyes' mailboxes).
-  OverlayBranch(std::string name, int index, OverlayFactory factory, OverlayEyes eyes,
-                const OverlayBranchOptions& options = {});
-
+  struct Options {
+    io::StereoCalibration calibration;  // the lenses, with the rectification the graph applies
+    bool right_eye = false;             // draw the right eye too
+    // Layers of one drawing alive at once: one per packet in flight (a
+    // packet releases its layers when the source refills it).
+    int layers_alive = 2;
+    // The registered pose, when the scene gives it: the drawings are built
+    // here, before the first frame, rather than at the first registered one.
+    std::optional<Eigen::Isometry3d> T_C_S;
+  };
+  // names, factories: one per overlay, in drawing order.
+  // @throws dg::Error when names and factories differ in number, or
+  // layers_alive is below 1.
+  OverlaysAdapter(const Options& options, std::vector<std::string> names, std::vector<OverlayFactory> factories);
   const std::string& name() const override { return name_; }
-  const std::string& fed_by() const override { return fed_by_; }
-  void Drain() override;
+  bool stateful() const override { return true; }
+  bool parallel_inside() const override { return true; }
+  void Process(FramePacket& packet) override;
 
-  // Producer side (the FEM stage, serial): never blocks.
-  void Publish(const FramePacket& packet);
-
-  // Geometries handed over, dropped (ring full, or skipped for a newer one) and drawn.
-  std::int64_t published() const { return published_; }
-  std::size_t dropped() const { return ring_.dropped(); }
-  std::int64_t drawn() const { return drawn_.load(); }
-  // Every draw's timing so far (both eyes' in a stereo run; call after the run).
-  std::vector<OverlayTiming> timings() const;
+  const std::vector<std::string>& overlay_names() const { return names_; }
 
  private:
-  struct Geometry {
-    std::shared_ptr<const stages::FemFrameOutput> simulation;
-    std::shared_ptr<const io::Registration> registration;
-    std::int64_t frame = -1;
-  };
-  struct Eye {
-    OverlayDraw draw;
-    std::shared_ptr<LatestLayers> latest;
-    stages::overlay::OverlayLayer layer;  // drawn, not yet offered
-  };
-
   // The eyes' drawings, through the lenses at the registered pose.
-  void BuildEyes(const Eigen::Isometry3d& T_C_S);
+  void BuildDrawings(const Eigen::Isometry3d& T_C_S);
 
-  std::string name_, fed_by_ = "simulate";
-  int index_;
-  OverlayFactory factory_;
-  OverlayEyes eyes_;
-  int layers_alive_;
-  std::vector<Eye> drawing_;  // left, then right in a stereo run; empty until the first geometry
-  SpscRing<Geometry> ring_;
-  std::int64_t published_ = 0;
-  std::atomic<std::int64_t> drawn_{0};
-  mutable std::mutex timings_mutex_;
-  std::vector<OverlayTiming> timings_;
+  std::string name_ = "overlays";
+  Options options_;
+  std::vector<std::string> names_;
+  std::vector<OverlayFactory> factories_;
+  // Per overlay, the left eye's drawing then (stereo) the right's; empty until the pose is known.
+  std::vector<std::array<OverlayDraw, 2>> drawings_;
+};
+
+// How finely the overlays are drawn: one setting for a run's drawings and
+// `dynaguide bench overlay`'s, so that the benchmark times what a run draws.
+// The defaults fit all three overlays, the simulation and the front end into
+// a 30 fps frame on two cores (docs/design.md#overlays).
+struct OverlayQuality {
+  int surface_supersample = 1;      // samples per pixel per axis of the texture and meshes (2: smooth edges, 4x the work)
+  double volume_slice_spacing_m = 2e-3;  // the CT volume's slices (opacity-corrected, so a coarser spacing keeps the tissue's density)
+  int volume_resolution_divisor = 2;     // the CT volume at 1/divisor of the image's resolution per axis
+
+  std::string Validate() const;  // empty when valid
+  std::string Describe() const;  // one line, for the run's log
 };
 
 // What the scene's overlays are, in drawing order: "texture" (surface_mesh
@@ -128,28 +104,29 @@ std::vector<stages::overlay::OverlaySurface> InternalMeshSurfaces(const io::Scen
 stages::overlay::OverlaySurface TexturedSurface(const io::Scene::Overlays& assets);
 
 // setup: the simulation the overlays draw (its mesh embeds them).
-// @throws dg::Error for an overlay whose assets the scene lacks, or an unreadable asset.
-OverlayPlan PlanOverlays(const io::Scene& scene, std::shared_ptr<const SimulationSetup> setup);
+// @throws dg::Error for an overlay whose assets the scene lacks, an
+// unreadable asset, or an invalid quality.
+OverlayPlan PlanOverlays(const io::Scene& scene, std::shared_ptr<const SimulationSetup> setup,
+                         const OverlayQuality& quality);
 
-// composite: packet.raw.left + the left eye's newest layers -> packet.composite
-// (with packet.layer_age_frames), and in a stereo run packet.raw.right + the
-// right eye's -> packet.composite_right. Into the packet's own images, which
-// the pooled packets keep from frame to frame. Stateless.
+// composite: packet.raw.left + packet.layers -> packet.composite (with
+// packet.layer_age_frames), and in a stereo run packet.raw.right +
+// packet.layers_right -> packet.composite_right. Into the packet's own
+// images, which the pooled packets keep from frame to frame. Before the
+// simulation starts (no layers yet) the composite is the video frame.
+// Stateless.
 class CompositeAdapter final : public PacketStage {
  public:
-  // left, right: the eyes' mailboxes, with as many overlays as the
-  // compositor's options have entries; right null for a left-only run.
-  // @throws dg::Error when a mailbox's overlays are not the compositor's entries.
-  CompositeAdapter(std::shared_ptr<const stages::overlay::Compositor> compositor,
-                   std::shared_ptr<const LatestLayers> left, std::shared_ptr<const LatestLayers> right = nullptr);
+  CompositeAdapter(std::shared_ptr<const stages::overlay::Compositor> compositor, bool right_eye);
   const std::string& name() const override { return name_; }
   bool stateful() const override { return false; }
+  bool parallel_inside() const override { return true; }  // bands of rows
   void Process(FramePacket& packet) override;
 
  private:
   std::string name_ = "composite";
   std::shared_ptr<const stages::overlay::Compositor> compositor_;
-  std::shared_ptr<const LatestLayers> left_, right_;
+  bool right_eye_;
 };
 
 }  // namespace dg::pipeline

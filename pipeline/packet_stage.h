@@ -17,6 +17,14 @@ class PacketStage {
   virtual ~PacketStage() = default;
   virtual const std::string& name() const = 0;
   virtual bool stateful() const = 0;
+  // Whether the stage spreads its own work over every core (the FEM's step
+  // team, the overlays' image tiles). The graph runs a frame through a run
+  // of such adjacent stages only after the frame before it has left the
+  // last of them, so that each gets the cores to itself: interleaved, the
+  // newer frame's work would hold back the older frame's, which is nearer
+  // to being shown. The first stage of such a run is stateful, so that
+  // frames enter it in order.
+  virtual bool parallel_inside() const { return false; }
   // @throws anything: the graph stops, naming this stage and the frame.
   virtual void Process(FramePacket& packet) = 0;
 };

@@ -42,6 +42,7 @@ const std::string& ScenePath(const RunOptions& options) {
 SceneGraph BuildRunGraph(const io::Scene& scene, const RunOptions& options) {
   OverlaySettings overlays;
   overlays.right_eye = options.video_layout == VideoLayout::kSideBySide;
+  overlays.quality = options.overlay_quality;
   return BuildSceneGraph(scene, options.graph, options.front_end, overlays);
 }
 
@@ -134,7 +135,8 @@ RunOutcome RunScene(const RunOptions& options) {
   if (built.simulation && !scene.truth.empty()) {
     error_log.emplace(log, scene.truth, built.simulation->mesh, built.calibration.left,
                       scene.preoperative ? stages::ReadFiducialMotion(scene.preoperative->motion)
-                                         : stages::FiducialMotion{});
+                                         : stages::FiducialMotion{},
+                      built.overlay_names);
     consumers.push_back([&](const FramePacket& packet) { error_log->Consume(packet); });
   }
   std::optional<MeshSeriesSink> mesh_series;
@@ -143,15 +145,16 @@ RunOutcome RunScene(const RunOptions& options) {
     consumers.push_back([&](const FramePacket& packet) { mesh_series->Consume(packet); });
   }
   std::optional<OverlayLog> overlay_log;
-  if (!built.overlays.empty()) {
-    overlay_log.emplace(log, built.overlays);
+  if (!built.overlay_names.empty()) {
+    overlay_log.emplace(log, built.overlay_names);
     consumers.push_back([&](const FramePacket& packet) { overlay_log->Consume(packet); });
   }
   std::optional<AnnotatedVideo> video;
   if (options.video) {
     outcome.video_path = (fs::path(options.out_dir) / "annotated.avi").string();
     const cv::Size size(built.calibration.left.width, built.calibration.left.height);
-    video.emplace(outcome.video_path, source.fps(), size, options.video_layout, options.graph.policy);
+    video.emplace(outcome.video_path, source.fps(), size, options.video_layout, options.graph.policy,
+                  options.show_age ? built.overlay_names : std::vector<std::string>{});
     video->Start();
     consumers.push_back([&video](const FramePacket& packet) { video->Add(packet); });
   }
@@ -183,10 +186,7 @@ RunOutcome RunScene(const RunOptions& options) {
   progress.Finish();
   if (overlay_log) {
     overlay_log->Finish(result.start_steady_ns);
-    if (const std::string missing = overlay_log->MissingOverlays(); !missing.empty()) {
-      Logger("pipeline").warn("{}; the overlays draw beside the frames at their own pace, and this range ended first "
-                         "(run a longer range, or in real time)", missing);
-    }
+    outcome.overlays = overlay_log->summary();
   }
   if (video) {
     try {

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "pipeline/annotated_video.h"
+#include "pipeline/overlay_log.h"
 #include "pipeline/run_statistics.h"
 #include "pipeline/scene_graph.h"
 #include "pipeline/stage_graph.h"
@@ -18,10 +19,14 @@ struct RunOptions {
   int threads = 0;                  // 0: all cores
   GraphOptions graph;     // policy, frames in flight, frame range
   FrontEndSettings front_end;
+  OverlayQuality overlay_quality;  // how finely the overlays are drawn
   bool video = true;     // write the annotated video
   // The annotated video's and the snapshots' layout; side by side also draws
   // and composes the right eye's overlays (a left-only run does not).
   VideoLayout video_layout = VideoLayout::kLeft;
+  // Label each frame of the annotated video with its layers' ages (frames
+  // since the state each was drawn from).
+  bool show_age = false;
   // Frames written as PNG (composite_<frame>.png: the overlaid frame, in video_layout).
   std::vector<std::int64_t> snapshots;
   bool progress = true;  // progress lines on stderr
@@ -43,6 +48,7 @@ struct RunOutcome {
   std::string mesh_series_path;   // mesh_series.xmf, when the run wrote the mesh series
   std::int64_t video_frames_dropped = 0;
   std::int64_t simulated_frames = 0;  // frames the FEM stage advanced to (0 without a simulation)
+  std::optional<OverlaySummary> overlays;  // a run with overlays: what they showed
 };
 
 // What a run writes into out_dir, as names and one-`*` patterns: a run

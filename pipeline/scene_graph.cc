@@ -4,6 +4,7 @@
 #include "pipeline/front_end_stages.h"
 #include "pipeline/scene_geometry.h"
 #include "sim/error.h"
+#include "sim/log.h"
 
 namespace dg::pipeline {
 namespace {
@@ -126,34 +127,33 @@ SceneGraph BuildSceneGraph(const io::Scene& scene, const GraphOptions& options, 
       built.live_phase = with_defaults.registration->live_phase;
     }
   }
-  OverlayEyes eyes{built.calibration, nullptr, nullptr};
-  std::shared_ptr<const stages::overlay::Compositor> compositor;  // both eyes': it holds no layers
+  std::unique_ptr<PacketStage> draw, composite;
   if (scene.simulation) {
     built.simulation = LoadSimulationSetup(scene);
-    OverlayPlan overlays = PlanOverlays(scene, built.simulation);
+    OverlayPlan overlays = PlanOverlays(scene, built.simulation, overlay_settings.quality);
     if (!overlays.factories.empty()) {
-      compositor = std::make_shared<const stages::overlay::Compositor>(overlays.compositor);
-      const int count = static_cast<int>(overlays.factories.size());
-      eyes.left = std::make_shared<LatestLayers>(count);
-      if (overlay_settings.right_eye) eyes.right = std::make_shared<LatestLayers>(count);
-    }
-    OverlayBranchOptions branch;
-    branch.composites_in_flight = options.max_in_flight;
-    if (built.given_registration) branch.T_C_S = Eigen::Isometry3d(built.given_registration->T_C_S);
-    for (size_t k = 0; k < overlays.factories.size(); ++k) {
-      built.overlays.push_back(std::make_shared<OverlayBranch>(overlays.compositor.layers[k].name, static_cast<int>(k),
-                                                               std::move(overlays.factories[k]), eyes, branch));
+      Logger("pipeline").info("overlays drawn for every simulated frame: {}", overlay_settings.quality.Describe());
+      OverlaysAdapter::Options drawing;
+      drawing.calibration = built.calibration;
+      drawing.right_eye = overlay_settings.right_eye;
+      drawing.layers_alive = options.max_in_flight;
+      if (built.given_registration) drawing.T_C_S = Eigen::Isometry3d(built.given_registration->T_C_S);
+      for (const auto& entry : overlays.compositor.layers) built.overlay_names.push_back(entry.name);
+      draw = std::make_unique<OverlaysAdapter>(drawing, built.overlay_names, std::move(overlays.factories));
+      composite = std::make_unique<CompositeAdapter>(
+          std::make_shared<const stages::overlay::Compositor>(overlays.compositor), overlay_settings.right_eye);
     }
     stages.push_back(std::make_unique<ConstraintAdapter>(built.simulation, built.given_registration));
-    stages.push_back(std::make_unique<FemAdapter>(built.simulation, built.overlays));
+    stages.push_back(std::make_unique<FemAdapter>(built.simulation));
   }
   if (built.given_registration) {
     CheckGivenPose(with_defaults, *built.given_registration, built.calibration, built.simulation.get(), settings);
   }
-  if (eyes.left) stages.push_back(std::make_unique<CompositeAdapter>(compositor, eyes.left, eyes.right));
-  built.graph = std::make_unique<StageGraph>(std::move(source), std::move(stages), options,
-                                             std::vector<std::shared_ptr<SideBranch>>(built.overlays.begin(),
-                                                                                      built.overlays.end()));
+  if (draw) {
+    stages.push_back(std::move(draw));
+    stages.push_back(std::move(composite));
+  }
+  built.graph = std::make_unique<StageGraph>(std::move(source), std::move(stages), options);
   return built;
 }
 

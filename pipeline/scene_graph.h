@@ -26,6 +26,7 @@ struct OverlaySettings {
   // Draw and compose the right eye too (packet.composite_right), for a
   // side-by-side stereo video; without it the run draws the left eye alone.
   bool right_eye = false;
+  OverlayQuality quality;
 };
 
 struct SceneGraph {
@@ -38,16 +39,17 @@ struct SceneGraph {
   bool live_phase = false;  // the register stage estimates the heart's phase every frame (packet.phase)
   // What the simulation stages run on; null when the scene has no simulation.
   std::shared_ptr<const SimulationSetup> simulation;
-  // The overlays' side branches, in drawing order (empty without overlays).
-  std::vector<std::shared_ptr<OverlayBranch>> overlays;
+  // The overlays the graph draws, in drawing order (empty without overlays).
+  std::vector<std::string> overlay_names;
 };
 
 // The graph a scene needs and nothing more: capture,
 // rectification unless the recording is rectified already, and tracking;
 // with a simulation, constraint mapping and the FEM step, preceded by
 // registration unless the scene gives a registration file (a scene may also
-// ask for registration alone); with a simulation and overlays, the overlays'
-// side branches and the composite stage (each eye's, with overlays.right_eye).
+// ask for registration alone); with a simulation and overlays, the overlays
+// stage after the FEM step and the composite stage (each eye's, with
+// overlays.right_eye).
 // @throws dg::Error for unreadable inputs, a calibration of another image
 // size than the video, a rectified recording whose calibration has no
 // rectification (P1, P2), a depth range that OptionsForDepthRange refuses,

@@ -6,7 +6,6 @@
 #include <cstdio>
 
 #include "io/gmsh_reader.h"
-#include "pipeline/overlay_stages.h"
 #include "pipeline/scene_geometry.h"
 #include "sim/coupled_simulation.h"
 #include "sim/error.h"
@@ -256,7 +255,6 @@ void FemAdapter::Process(FramePacket& packet) {
   std::shared_ptr<stages::FemFrameOutput> output = FreeOutput();
   fem_->Process(static_cast<int>(packet.index - first_frame_), packet.targets, output.get(), &packet.phase);
   packet.simulation = std::move(output);
-  for (const auto& overlay : overlays_) overlay->Publish(packet);
 }
 
 }  // namespace dg::pipeline

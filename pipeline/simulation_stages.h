@@ -19,8 +19,6 @@
 
 namespace dg::pipeline {
 
-class OverlayBranch;
-
 // The stages after tracking: registration, constraint
 // mapping and the FEM step, as the graph sees them. The simulation starts at
 // the first frame that carries a registration: its cardiac phase is the
@@ -122,28 +120,26 @@ class ConstraintAdapter final : public PacketStage {
 };
 
 // simulate: packet.targets -> packet.simulation: the FEM stage advanced to the
-// frame's time, in round(1 / (fps dt)) substeps, then handed to the overlays'
-// rings (never waiting for them). Stateful.
+// frame's time, in round(1 / (fps dt)) substeps. Stateful.
 class FemAdapter final : public PacketStage {
  public:
-  // overlays: the side branches each frame's geometry is handed to.
-  FemAdapter(std::shared_ptr<const SimulationSetup> setup, std::vector<std::shared_ptr<OverlayBranch>> overlays)
-      : setup_(std::move(setup)), overlays_(std::move(overlays)), helpers_(std::make_unique<SolverHelpers>()) {}
+  explicit FemAdapter(std::shared_ptr<const SimulationSetup> setup)
+      : setup_(std::move(setup)), helpers_(std::make_unique<SolverHelpers>()) {}
   const std::string& name() const override { return name_; }
   bool stateful() const override { return true; }
+  bool parallel_inside() const override { return true; }
   void Process(FramePacket& packet) override;
 
  private:
   std::string name_ = "simulate";
   std::shared_ptr<const SimulationSetup> setup_;
-  std::vector<std::shared_ptr<OverlayBranch>> overlays_;
   // An output no packet or overlay holds any more, else a new one.
   std::shared_ptr<stages::FemFrameOutput> FreeOutput();
 
   std::unique_ptr<SolverHelpers> helpers_;  // outlives fem_, whose solver launches on it
   std::unique_ptr<stages::FemStage> fem_;
   std::int64_t first_frame_ = 0;
-  // The outputs handed out so far (packets and overlays share them; a frame
+  // The outputs handed out so far (packets and sinks share them; a frame
   // reuses one that only this pool holds): as many as are ever alive at once.
   std::vector<std::shared_ptr<stages::FemFrameOutput>> outputs_;
 };

@@ -86,10 +86,16 @@ void StageGraph::Plan() {
     previous = node;
   };
   std::map<std::string, int> stage_nodes;
-  for (const auto& stage : stages_) {
-    if (stage->stateful()) chain(add("order_before_" + stage->name(), "sequencer"));
-    chain(add(stage->name(), stage->stateful() ? "stateful" : "stateless"));
-    stage_nodes[stage->name()] = previous;
+  for (size_t i = 0; i < stages_.size(); ++i) {
+    const PacketStage& stage = *stages_[i];
+    if (OpensCoreSpan(i) && !stage.stateful()) {
+      throw Error("stage '" + stage.name() + "' begins a run of stages that work on all cores but is stateless",
+                  "pipeline", "begin such a run with a stateful stage, so that frames enter it in order");
+    }
+    if (stage.stateful()) chain(add("order_before_" + stage.name(), "sequencer"));
+    if (OpensCoreSpan(i)) chain(add("one_frame_from_" + stage.name(), "limiter"));
+    chain(add(stage.name(), stage.stateful() ? "stateful" : "stateless"));
+    stage_nodes[stage.name()] = previous;
   }
   for (const auto& branch : branches_) {
     const auto feeder = stage_nodes.find(branch->fed_by());
@@ -104,6 +110,15 @@ void StageGraph::Plan() {
   chain(add("order_before_sink", "sequencer"));
   chain(add("sink", "sink"));
   edges_.push_back({previous, free_packets});
+}
+
+bool StageGraph::OpensCoreSpan(size_t stage) const {
+  return stages_[stage]->parallel_inside() && (stage == 0 || !stages_[stage - 1]->parallel_inside());
+}
+
+bool StageGraph::ClosesCoreSpan(size_t stage) const {
+  return stages_[stage]->parallel_inside() &&
+         (stage + 1 == stages_.size() || !stages_[stage + 1]->parallel_inside());
 }
 
 std::string StageGraph::Describe() const {
@@ -154,13 +169,24 @@ class StageGraph::Runner {
       flow::make_edge(*previous, node);
       previous = &node;
     };
+    // A run of stages that each work on all cores admits one frame at a
+    // time (PacketStage::parallel_inside): a limiter before its first stage,
+    // whose count the last stage's node releases when a frame leaves it.
+    OneFrame* span = nullptr;
     for (size_t i = 0; i < plan_.stages_.size(); ++i) {
       PacketStage& stage = *plan_.stages_[i];
       if (stage.stateful()) chain(AddSequencer());
+      if (plan_.OpensCoreSpan(i)) {
+        spans_.push_back(std::make_unique<OneFrame>(graph_, 1));
+        span = spans_.back().get();
+        chain(*span);
+      }
+      OneFrame* closes = plan_.ClosesCoreSpan(i) ? span : nullptr;
       const int index = static_cast<int>(i) + 1;
       stage_nodes_.push_back(std::make_unique<StageNode>(
-          graph_, stage.stateful() ? flow::serial : flow::unlimited, [this, &stage, index](Packet packet) {
+          graph_, stage.stateful() ? flow::serial : flow::unlimited, [this, &stage, index, closes](Packet packet) {
             Timed(*packet, index, [&] { stage.Process(*packet); });
+            if (closes) closes->decrementer().try_put(flow::continue_msg());
             return packet;
           }));
       chain(*stage_nodes_.back());
@@ -265,6 +291,7 @@ class StageGraph::Runner {
   using SourceNode = flow::multifunction_node<std::tuple<Packet, Tick>, std::tuple<Packet, Packet>>;
   using StageNode = flow::function_node<Packet, Packet>;
   using Sequencer = flow::sequencer_node<Packet>;
+  using OneFrame = flow::limiter_node<Packet>;
   using SideNode = flow::function_node<flow::continue_msg, flow::continue_msg, flow::rejecting>;
 
   std::int64_t NowNs() const {
@@ -501,6 +528,7 @@ class StageGraph::Runner {
   flow::join_node<std::tuple<Packet, Tick>, flow::reserving> join_;
   SourceNode source_node_;
   std::vector<std::unique_ptr<Sequencer>> sequencers_;
+  std::vector<std::unique_ptr<OneFrame>> spans_;  // one per run of stages that work on all cores
   std::vector<std::unique_ptr<StageNode>> stage_nodes_;
   std::unique_ptr<StageNode> sink_node_;
   std::unique_ptr<SideNode> side_node_;                 // runs DrainPendingSides

@@ -107,6 +107,8 @@ struct GraphRunResult {
 //
 // A packet is a token: the reserving join lets the source start a frame only
 // when a packet is free, so at most max_in_flight frames are in the graph.
+// A run of stages that each work on all cores (PacketStage::parallel_inside)
+// sits behind a limiter that admits one frame at a time.
 // Stateless stages run with unlimited concurrency; a sequencer restores the
 // order before any stateful stage and before the sink. A stage that throws
 // stops the graph: the source reads no more, the frames before the failing
@@ -127,7 +129,7 @@ class StageGraph {
   const std::vector<std::string>& stage_names() const { return stage_names_; }
 
   struct Node {
-    std::string name, kind;  // kind: ticker, join, source, stateless, stateful, sequencer, sink, buffer, side
+    std::string name, kind;  // kind: ticker, join, source, stateless, stateful, sequencer, limiter, sink, buffer, side
   };
   struct Edge {
     int from, to;  // indices into nodes()
@@ -150,6 +152,10 @@ class StageGraph {
  private:
   class Runner;
   void Plan();
+  // Whether stage i starts, or ends, a run of adjacent stages that work on
+  // all cores (PacketStage::parallel_inside).
+  bool OpensCoreSpan(size_t stage) const;
+  bool ClosesCoreSpan(size_t stage) const;
 
   std::unique_ptr<PacketSource> source_;
   std::vector<std::unique_ptr<PacketStage>> stages_;

@@ -290,14 +290,14 @@ TEST_CASE("full disk: dynaguide run stops, keeps the frames flushed and exits cl
   REQUIRE(file >= 0);
   CHECK(IntAttribute(file, "/", "complete") == 0);
   CHECK_THAT(StringAttribute(file, "/", "error"), Catch::Contains("File too large"));
-  // At least the first flush, at frame 29 (its tracks, and the 8 stage
+  // At least the first flush, at frame 29 (its tracks, and the 9 stage
   // timings of the frames before it), and not the whole video.
   const std::vector<double> tracked = Doubles(file, "/tracks/frame");
   REQUIRE_FALSE(tracked.empty());
   const double last_flushed = *std::max_element(tracked.begin(), tracked.end());
   CHECK(last_flushed >= 29);
   CHECK(last_flushed < 89);
-  CHECK(Rows(file, "/timings/frame") == static_cast<hsize_t>(last_flushed) * 8);
+  CHECK(Rows(file, "/timings/frame") == static_cast<hsize_t>(last_flushed) * 9);
   H5Fclose(file);
 }
 

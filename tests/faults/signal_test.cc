@@ -170,7 +170,7 @@ void CheckRunInterruptedBy(int signal, const std::string& signal_name) {
   CHECK_THAT(StringAttribute(file, "/", "error"), Catch::Contains(interrupted + std::to_string(last_frame)));
   const long long frames = IntAttribute(file, "/", "frames");
   CHECK(frames + IntAttribute(file, "/", "frames_dropped") == last_frame + 1);
-  CHECK(Rows(file, "/timings/frame") == static_cast<hsize_t>(frames) * 8);  // 8 stages, the sink's included
+  CHECK(Rows(file, "/timings/frame") == static_cast<hsize_t>(frames) * 9);  // 9 stages, the sink's included
   const std::vector<double> timed_frames = Doubles(file, "/timings/frame");
   CHECK(*std::max_element(timed_frames.begin(), timed_frames.end()) == last_frame);
   const std::vector<double> simulated = Doubles(file, "/sim/frame");

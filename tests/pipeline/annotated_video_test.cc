@@ -15,7 +15,7 @@ TEST_CASE("annotated video: offline, every frame reaches the file", "[pipeline][
   const std::string path = folder.File("annotated.avi");
   constexpr int kFrames = 25;
   {
-    AnnotatedVideo video(path, 30, {64, 48}, VideoLayout::kLeft, Policy::kOffline, 2);
+    AnnotatedVideo video(path, 30, {64, 48}, VideoLayout::kLeft, Policy::kOffline, {}, 2);
     video.Start();
     FramePacket packet;
     for (int j = 0; j < kFrames; ++j) {

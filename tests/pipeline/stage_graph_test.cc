@@ -200,17 +200,18 @@ std::vector<std::string> NodeNames(const StageGraph& graph) {
 TEST_CASE("graph: built with exactly the stages the scene needs", "[pipeline][integration]") {
   const io::Scene scene = TinyScene();
   // The phantom's scene: registration from the video, then the combined
-  // simulation, whose geometry the three overlays draw beside the chain.
+  // simulation, whose every frame the three overlays draw in the chain.
   const SceneGraph full = BuildSceneGraph(scene, {});
   REQUIRE(full.graph->stage_names() == std::vector<std::string>{"capture", "rectify", "track", "register",
-                                                                "constraints", "simulate", "composite", "sink"});
-  std::vector<std::string> sides;
+                                                                "constraints", "simulate", "overlays", "composite", "sink"});
+  // One frame at a time from the FEM step to the composite, all of which work on every core.
+  std::vector<std::string> limiters;
   for (const StageGraph::Edge& edge : full.graph->edges()) {
-    if (full.graph->nodes()[edge.to].kind != "side") continue;
-    REQUIRE(full.graph->nodes()[edge.from].name == "simulate");
-    sides.push_back(full.graph->nodes()[edge.to].name);
+    if (full.graph->nodes()[edge.from].kind != "limiter" || full.graph->nodes()[edge.from].name == "limiter") continue;
+    limiters.push_back(full.graph->nodes()[edge.from].name + " -> " + full.graph->nodes()[edge.to].name);
   }
-  REQUIRE(sides == std::vector<std::string>{"texture", "volume", "meshes"});
+  REQUIRE(limiters == std::vector<std::string>{"one_frame_from_simulate -> simulate"});
+  REQUIRE(full.overlay_names == std::vector<std::string>{"texture", "volume", "meshes"});
   REQUIRE(full.simulation->motion != nullptr);  // combined: the scan's motion drives the inverse simulation
   REQUIRE(full.simulation->predictor == full.simulation->motion);
   REQUIRE(full.given_registration == nullptr);
@@ -241,7 +242,7 @@ TEST_CASE("graph: built with exactly the stages the scene needs", "[pipeline][in
         "scene_registered.yaml", WithoutBlock(scene.text, "registration") + "registration:\n  file: registration.yaml\n");
     const SceneGraph built = BuildSceneGraph(given, {});
     REQUIRE(built.graph->stage_names() ==
-            std::vector<std::string>{"capture", "rectify", "track", "constraints", "simulate", "composite", "sink"});
+            std::vector<std::string>{"capture", "rectify", "track", "constraints", "simulate", "overlays", "composite", "sink"});
     REQUIRE(built.given_registration != nullptr);
   }
 
@@ -249,10 +250,9 @@ TEST_CASE("graph: built with exactly the stages the scene needs", "[pipeline][in
     std::string text = scene.text;
     text.replace(text.find("overlays:\n"), 10, "overlays:\n  order: [meshes]\n");
     const SceneGraph meshes_only = BuildSceneGraph(SceneFromText("scene_meshes.yaml", text), {});
-    REQUIRE(meshes_only.overlays.size() == 1);
-    REQUIRE(meshes_only.overlays[0]->name() == "meshes");
+    REQUIRE(meshes_only.overlay_names == std::vector<std::string>{"meshes"});
     const SceneGraph none = BuildSceneGraph(SceneFromText("scene_no_overlays.yaml", WithoutBlock(scene.text, "overlays")), {});
-    REQUIRE(none.overlays.empty());
+    REQUIRE(none.overlay_names.empty());
     REQUIRE(none.graph->stage_names().back() == "sink");
     REQUIRE(std::find(none.graph->stage_names().begin(), none.graph->stage_names().end(), "composite") ==
             none.graph->stage_names().end());

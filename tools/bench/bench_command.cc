@@ -14,6 +14,7 @@
 #include "tools/bench/run_bench.h"
 #include "tools/bench/vision_bench.h"
 #include "tools/commands.h"
+#include "tools/overlay_quality_options.h"
 #include "tools/preop/preop_bench.h"
 
 namespace dg::tools {
@@ -47,9 +48,7 @@ void AddOverlayBench(CLI::App& bench) {
   command->add_option("--threads", options->threads, "Thread counts")->delimiter(',')->capture_default_str();
   command->add_option("--frames", options->frames, "Frames timed per overlay and thread count")->capture_default_str();
   command->add_option("--seconds", options->duration_s, "Length of the generated phantom video")->capture_default_str();
-  command->add_option("--supersample", options->supersample, "Surface overlays' samples per pixel per axis")
-      ->capture_default_str();
-  command->add_option("--slice-spacing", options->slice_spacing_m, "Volume slice spacing, metres")->capture_default_str();
+  AddOverlayQualityOptions(command, &options->quality);
   command->add_option("--json", *json_path, "Save the records to this JSON file");
   command->callback([options, json_path] {
     PrintMachine();

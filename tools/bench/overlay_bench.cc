@@ -69,12 +69,17 @@ std::vector<OverlayBenchRecord> RunOverlayBench(const OverlayBenchOptions& optio
   }
   const int available = scene.frames();
 
+  if (const std::string wrong = options.quality.Validate(); !wrong.empty()) {
+    throw Error("invalid overlay quality: " + wrong, "dynaguide bench overlay",
+                "correct --supersample, --volume-divisor or --volume-slice-mm");
+  }
   overlay::SurfaceOverlay::Options mesh_options;
-  mesh_options.supersample = options.supersample;
+  mesh_options.supersample = options.quality.surface_supersample;
   overlay::SurfaceOverlay::Options texture_options = mesh_options;
   texture_options.lit = false;
   overlay::VolumeOverlay::Options volume_options;
-  volume_options.slice_spacing_m = options.slice_spacing_m;
+  volume_options.slice_spacing_m = options.quality.volume_slice_spacing_m;
+  volume_options.resolution_divisor = options.quality.volume_resolution_divisor;
   const auto mesh = scene.MakeMeshOverlay(mesh_options);
   const auto texture = scene.MakeTextureOverlay(texture_options);
   const auto volume = scene.MakeVolumeOverlay(volume_options);

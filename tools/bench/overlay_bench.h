@@ -3,14 +3,15 @@
 #include <string>
 #include <vector>
 
+#include "pipeline/overlay_stages.h"
+
 namespace dg::tools {
 
 struct OverlayBenchOptions {
   std::vector<int> threads{1, 2};
   int frames = 30;           // timed Process/Compose calls per overlay and thread count
   double duration_s = 0.5;   // of the generated phantom (its frames are cycled)
-  int supersample = 1;       // of the surface overlays (2 smooths edges at 4x the samples)
-  double slice_spacing_m = 1e-3;  // of the volume overlay: the phantom CT's voxel size
+  pipeline::OverlayQuality quality;  // the run's defaults unless set
 };
 
 // One line of the saved table: per overlay and thread count, the

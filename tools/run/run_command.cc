@@ -8,6 +8,7 @@
 #include "pipeline/stop_request.h"
 #include "sim/error.h"
 #include "tools/commands.h"
+#include "tools/overlay_quality_options.h"
 #include "tools/phantom/phantom_cache.h"
 
 namespace dg::tools {
@@ -70,6 +71,7 @@ void RunRunCommand(RunArguments& args) {
   pipeline::InstallStopOnSignals();  // a signal stops the run with its outputs finished (docs/interrupts.md)
   const pipeline::RunOutcome outcome = pipeline::RunScene(options);
   std::printf("dynaguide run: %s\n%s", outcome.log_path.c_str(), outcome.statistics.Text().c_str());
+  if (outcome.overlays) std::fputs(outcome.overlays->Text(outcome.statistics.wall_s).c_str(), stdout);
   if (!outcome.registration_path.empty()) {
     std::printf("registration: %s (a scene reuses it as registration: {file: ...})\n", outcome.registration_path.c_str());
   }
@@ -131,6 +133,10 @@ void AddRunCommand(CLI::App& app) {
   command->add_option("--snapshots", args->options.snapshots,
                       "Frames written as PNG, the overlays composed over the frame in the video's layout (e.g. 60,80)")
       ->delimiter(',');
+  AddOverlayQualityOptions(command, &args->options.overlay_quality);
+  command->add_flag("--show-age", args->options.show_age,
+                    "Label each frame of the annotated video with its overlays' layer ages (frames since the "
+                    "simulated state each layer was drawn from)");
   command->add_flag("--quiet", args->quiet, "No progress lines");
   command->callback([args] { RunRunCommand(*args); });
 }
