@@ -27,9 +27,15 @@ OverlayLayer LayerFromRender(const render::Rasterizer& rasterizer, float opacity
   const float sample_weight = opacity * inv_count;
   const cv::Size size(rasterizer.camera().width, rasterizer.camera().height);
   OverlayLayer layer{pool->Take(size), frame};
-  tbb::parallel_for(0, size.height, [&](int y) {
+  // Only the pixels whose samples were drawn on: the rest is transparent.
+  layer.bgra.setTo(cv::Scalar::all(0));
+  const cv::Rect& drawn = rasterizer.DrawnSamples();
+  if (drawn.empty()) return layer;
+  const int x0 = drawn.x / s, x1 = (drawn.x + drawn.width - 1) / s + 1;
+  const int y0 = drawn.y / s, y1 = (drawn.y + drawn.height - 1) / s + 1;
+  tbb::parallel_for(y0, y1, [&](int y) {
     cv::Vec4f* out = layer.bgra.ptr<cv::Vec4f>(y);
-    for (int x = 0; x < size.width; ++x) {
+    for (int x = x0; x < x1; ++x) {
       cv::Vec3f sum(0, 0, 0);
       int covered = 0;
       for (int dy = 0; dy < s; ++dy) {

@@ -58,13 +58,18 @@ Rasterizer::Rasterizer(const PinholeCamera& camera, int supersample)
   color_full_.create(full_camera_.height, full_camera_.width, CV_32FC3);
   depth_full_.create(full_camera_.height, full_camera_.width, CV_32FC1);
   ids_full_.create(full_camera_.height, full_camera_.width, CV_32SC1);
-  Clear(Eigen::Vector3f::Zero());
+  background_ = Eigen::Vector3f::Zero();
+  drawn_ = cv::Rect(0, 0, full_camera_.width, full_camera_.height);
+  Clear(background_);
 }
 
 void Rasterizer::Clear(const Eigen::Vector3f& background_bgr) {
-  color_full_.setTo(cv::Scalar(background_bgr[0], background_bgr[1], background_bgr[2]));
-  depth_full_.setTo(std::numeric_limits<float>::infinity());
-  ids_full_.setTo(-1);
+  if (background_bgr != background_) drawn_ = cv::Rect(0, 0, full_camera_.width, full_camera_.height);
+  background_ = background_bgr;
+  color_full_(drawn_).setTo(cv::Scalar(background_bgr[0], background_bgr[1], background_bgr[2]));
+  depth_full_(drawn_).setTo(std::numeric_limits<float>::infinity());
+  ids_full_(drawn_).setTo(-1);
+  drawn_ = cv::Rect();
 }
 
 void Rasterizer::Draw(const TriangleMesh& mesh, const Material& material, const Light& light, int object_id) {
@@ -133,6 +138,7 @@ void Rasterizer::BinTriangles() {
   for (auto& bin : bins_) bin.clear();
   for (const auto& block : blocks_) {
     for (const ScreenTriangle& t : block) {
+      drawn_ |= cv::Rect(t.min_x, t.min_y, t.max_x - t.min_x + 1, t.max_y - t.min_y + 1);
       for (int ty = t.min_y / kTileSize; ty <= t.max_y / kTileSize; ++ty) {
         for (int tx = t.min_x / kTileSize; tx <= t.max_x / kTileSize; ++tx) bins_[ty * tiles_x_ + tx].push_back(&t);
       }

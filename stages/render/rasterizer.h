@@ -35,8 +35,15 @@ class Rasterizer {
   //   or the supersampled image is wider or taller than 16384 pixels.
   explicit Rasterizer(const PinholeCamera& camera, int supersample = 1);
 
-  // Colour to background_bgr, depth to +inf, object ids to -1.
+  // Colour to background_bgr, depth to +inf, object ids to -1. Only the
+  // samples drawn since the last Clear() are written, unless the background
+  // changed: an organ covering part of the image costs that part.
   void Clear(const Eigen::Vector3f& background_bgr);
+
+  // The supersampled samples that Draw() may have written since the last
+  // Clear() (the union of the drawn triangles' bounds); outside it every
+  // sample is the background.
+  const cv::Rect& DrawnSamples() const { return drawn_; }
 
   // Draws the mesh's triangles (in the camera frame), writing object_id where
   // they are nearest. A textured material needs the mesh's uvs.
@@ -77,6 +84,8 @@ class Rasterizer {
   FrustumClipper clipper_;
   int tiles_x_, tiles_y_;
 
+  Eigen::Vector3f background_;
+  cv::Rect drawn_;      // DrawnSamples()
   cv::Mat color_full_;  // CV_32FC3
   cv::Mat depth_full_;  // CV_32FC1
   cv::Mat ids_full_;    // CV_32SC1

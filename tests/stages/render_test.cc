@@ -566,3 +566,34 @@ TEST_CASE("render: a closed surface's back faces are skipped without changing th
 }
 
 }  // namespace dg::stages::render
+
+namespace dg::stages::render {
+
+// Clear() writes only what the draws since the last one touched, and the
+// result is the same as a fresh rasterizer's: a large triangle, cleared,
+// leaves nothing behind under a small one; a new background clears everything.
+TEST_CASE("render: clearing only the drawn samples leaves no trace of the last frame", "[stages][unit]") {
+  const PinholeCamera camera = TestCamera(200, 160, 120);
+  const TriangleMesh large = MeshThroughPixels(camera, {{5, 5}, {150, 10}, {80, 110}}, 0.1, {{0, 1, 2}});
+  const TriangleMesh small = MeshThroughPixels(camera, {{60, 50}, {90, 52}, {70, 80}}, 0.1, {{0, 1, 2}});
+  Rasterizer reused(camera, 2), fresh(camera, 2);
+  reused.Clear(Eigen::Vector3f::Zero());
+  reused.Draw(large, Unlit(), Light{}, 1);
+  const cv::Rect large_bounds = reused.DrawnSamples();
+  CHECK(large_bounds.area() > 200 * 150);
+  CHECK(large_bounds.area() < 320 * 240);
+  for (const Eigen::Vector3f& background : {Eigen::Vector3f(0, 0, 0), Eigen::Vector3f(0.2f, 0.1f, 0.3f)}) {
+    reused.Clear(background);
+    CHECK(reused.DrawnSamples().empty());
+    reused.Draw(small, Unlit(), Light{}, 2);
+    fresh.Clear(background);
+    fresh.Draw(small, Unlit(), Light{}, 2);
+    REQUIRE(BitIdentical(reused.ColorFull(), fresh.ColorFull()));
+    REQUIRE(BitIdentical(reused.Depth(), fresh.Depth()));
+    REQUIRE(BitIdentical(reused.ObjectIds(), fresh.ObjectIds()));
+    CHECK((large_bounds & reused.DrawnSamples()) == reused.DrawnSamples());
+    reused.Draw(large, Unlit(), Light{}, 1);  // the next round clears it again
+  }
+}
+
+}  // namespace dg::stages::render
