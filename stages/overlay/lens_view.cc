@@ -89,18 +89,42 @@ template void LensView::ToView(const Eigen::Matrix3Xd&, Eigen::Matrix3Xf*) const
 template void LensView::ToView(const Eigen::Matrix3Xd&, Eigen::Matrix3Xd*) const;
 
 cv::Mat LensView::RayLengthPerDepth() const {
-  cv::Mat length(camera_.height, camera_.width, CV_32F);
+  // sqrt(1 + x_u^2 + y_u^2) varies slowly over the image (tens of percent
+  // from centre to corner, smoothly): the lens is inverted on a grid every
+  // kStep pixels, with the last row and column at the image's edge, and
+  // interpolated bilinearly between (within 3e-5 relative through a strongly
+  // distorting lens, tests/stages/overlay), 16 times fewer inversions.
+  constexpr int kStep = 4;
+  DG_CHECK(camera_.width >= 2 && camera_.height >= 2);
+  const int grid_cols = (camera_.width - 1 + kStep - 1) / kStep + 1, grid_rows = (camera_.height - 1 + kStep - 1) / kStep + 1;
+  const auto grid_coordinate = [](int k, int size) { return std::min(k * kStep, size - 1); };
+  cv::Mat grid(grid_rows, grid_cols, CV_64F);
   std::atomic<bool> failed{false};
-  tbb::parallel_for(0, camera_.height, [&](int v) {
-    for (int u = 0; u < camera_.width; ++u) {
+  tbb::parallel_for(0, grid_rows, [&](int j) {
+    for (int i = 0; i < grid_cols; ++i) {
       Eigen::Vector2d normalized;
-      if (!UndistortPixel(camera_, Eigen::Vector2d(u, v), &normalized)) failed = true;
-      length.at<float>(v, u) = static_cast<float>(std::sqrt(1 + normalized.squaredNorm()));
+      const Eigen::Vector2d pixel(grid_coordinate(i, camera_.width), grid_coordinate(j, camera_.height));
+      if (!UndistortPixel(camera_, pixel, &normalized)) failed = true;
+      grid.at<double>(j, i) = std::sqrt(1 + normalized.squaredNorm());
     }
   });
   if (failed)
     throw Error("lens distortion cannot be inverted inside the image", "overlay camera",
                 "check the distortion coefficients of the calibration");
+  cv::Mat length(camera_.height, camera_.width, CV_32F);
+  tbb::parallel_for(0, camera_.height, [&](int v) {
+    const int j = std::min(v / kStep, grid_rows - 2);
+    const double y0 = grid_coordinate(j, camera_.height), y1 = grid_coordinate(j + 1, camera_.height);
+    const double fy = (v - y0) / (y1 - y0);
+    for (int u = 0; u < camera_.width; ++u) {
+      const int i = std::min(u / kStep, grid_cols - 2);
+      const double x0 = grid_coordinate(i, camera_.width), x1 = grid_coordinate(i + 1, camera_.width);
+      const double fx = (u - x0) / (x1 - x0);
+      const double top = (1 - fx) * grid.at<double>(j, i) + fx * grid.at<double>(j, i + 1);
+      const double bottom = (1 - fx) * grid.at<double>(j + 1, i) + fx * grid.at<double>(j + 1, i + 1);
+      length.at<float>(v, u) = static_cast<float>((1 - fy) * top + fy * bottom);
+    }
+  });
   return length;
 }
 

@@ -55,13 +55,28 @@ std::string SurfaceOverlay::Options::Validate() const {
   return {};
 }
 
+std::shared_ptr<const sim::Embedding> SurfaceOverlay::Embed(const sim::TetMesh& mesh,
+                                                            const std::vector<OverlaySurface>& surfaces) {
+  return std::make_shared<const sim::Embedding>(mesh, AllVertices(CheckedSurfaces(surfaces)));
+}
+
 SurfaceOverlay::SurfaceOverlay(const Options& options, const sim::TetMesh& mesh, std::vector<OverlaySurface> surfaces,
                                const LensView& view)
+    : SurfaceOverlay(options, Embed(mesh, surfaces), surfaces, view) {}
+
+SurfaceOverlay::SurfaceOverlay(const Options& options, std::shared_ptr<const sim::Embedding> embedding,
+                               std::vector<OverlaySurface> surfaces, const LensView& view)
     : options_(CheckedOptions(options)),
-      surfaces_(std::move(surfaces)),
-      embedding_(mesh, AllVertices(CheckedSurfaces(surfaces_))),
+      surfaces_(CheckedSurfaces(surfaces)),
+      embedding_(std::move(embedding)),
       view_(view),
       rasterizer_(view.pinhole(), options.supersample) {
+  Eigen::Index vertices = 0;
+  for (const OverlaySurface& s : surfaces_) vertices += s.mesh.num_vertices();
+  if (!embedding_ || embedding_->num_points() != vertices) {
+    throw Error("the embedding is not of the surfaces' " + std::to_string(vertices) + " vertices", "surface overlay",
+                "embed the same surfaces (SurfaceOverlay::Embed)");
+  }
   Eigen::Index first = 0;
   for (const OverlaySurface& s : surfaces_) {
     first_vertex_.push_back(first);
@@ -79,11 +94,11 @@ SurfaceOverlay::SurfaceOverlay(const Options& options, const sim::TetMesh& mesh,
 }
 
 OverlayLayer SurfaceOverlay::Process(const Eigen::Matrix3Xd& nodes_S, std::int64_t frame) {
-  if (nodes_S.cols() != embedding_.num_nodes())
+  if (nodes_S.cols() != embedding_->num_nodes())
     throw Error("node positions for " + std::to_string(nodes_S.cols()) + " nodes, the mesh has " +
-                    std::to_string(embedding_.num_nodes()),
+                    std::to_string(embedding_->num_nodes()),
                 "overlay, frame " + std::to_string(frame), "pass the simulation mesh's current node positions");
-  embedding_.Rebuild(nodes_S, &vertices_S_);
+  embedding_->Rebuild(nodes_S, &vertices_S_);
   view_.ToView(vertices_S_, &vertices_view_);
   rasterizer_.Clear(Eigen::Vector3f::Zero());
   for (size_t i = 0; i < surfaces_.size(); ++i) {

@@ -1,6 +1,7 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -54,6 +55,17 @@ class SurfaceOverlay {
   //   surface without uvs, or a texture that is not 8-bit BGR.
   SurfaceOverlay(const Options& options, const sim::TetMesh& mesh, std::vector<OverlaySurface> surfaces,
                  const LensView& view);
+  // The same with the surfaces' vertices embedded already (Embed()): the
+  // embedding does not depend on the view, so a pipeline embeds once, before
+  // the registration, and builds each eye's overlay from it when the pose is known.
+  // @throws dg::Error as above, or for an embedding of other vertices.
+  SurfaceOverlay(const Options& options, std::shared_ptr<const sim::Embedding> embedding,
+                 std::vector<OverlaySurface> surfaces, const LensView& view);
+
+  // Every surface's vertices, concatenated in surface order, embedded in the mesh.
+  // @throws dg::Error for an empty surface list.
+  static std::shared_ptr<const sim::Embedding> Embed(const sim::TetMesh& mesh,
+                                                     const std::vector<OverlaySurface>& surfaces);
 
   // The layer for node positions nodes_S (scan frame, one column per node of
   // the mesh given to the constructor) of frame `frame`.
@@ -61,7 +73,7 @@ class SurfaceOverlay {
   OverlayLayer Process(const Eigen::Matrix3Xd& nodes_S, std::int64_t frame);
 
   // Every surface's vertices, concatenated in surface order.
-  const sim::Embedding& embedding() const { return embedding_; }
+  const sim::Embedding& embedding() const { return *embedding_; }
   const LensView& view() const { return view_; }
 
  private:
@@ -70,7 +82,7 @@ class SurfaceOverlay {
   std::vector<Eigen::Index> first_vertex_;  // of each surface in the embedding
   std::vector<render::TriangleMesh> drawn_;  // per surface, reused every frame
   LayerPool layers_;
-  sim::Embedding embedding_;
+  std::shared_ptr<const sim::Embedding> embedding_;
   LensView view_;
   render::Rasterizer rasterizer_;
   Eigen::Matrix3Xd vertices_S_;

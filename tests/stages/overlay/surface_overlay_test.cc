@@ -8,6 +8,7 @@
 #include <random>
 
 #include <catch2/catch.hpp>
+#include <opencv2/core.hpp>
 
 #include "sim/error.h"
 #include "stages/camera_model.h"
@@ -152,6 +153,50 @@ TEST_CASE("overlay: vertices land on the distorted projection", "[stages][unit]"
     REQUIRE(v.z() == Approx((T_C_S * X_S).z()).epsilon(1e-15));
   }
   REQUIRE(inside > 300);
+}
+
+// The ray length per depth, interpolated from a coarse grid of lens
+// inversions, against each pixel's own inversion through the same strongly
+// distorting lens.
+TEST_CASE("overlay: the ray length per depth matches each pixel's inverted ray", "[stages][unit]") {
+  io::CameraCalibration camera = PinholeCalibration(643, 481, 500);  // sizes that are not multiples of the grid
+  camera.distortion = {-0.28, 0.09, 0.0012, -0.0008, 0.0, 0, 0, 0};
+  const cv::Mat length = LensView(camera, Eigen::Isometry3d::Identity()).RayLengthPerDepth();
+  REQUIRE(length.size() == cv::Size(643, 481));
+  double worst = 0, largest = 0;
+  for (int v = 0; v < camera.height; v += 3) {
+    for (int u = 0; u < camera.width; u += 3) {
+      Eigen::Vector2d normalized;
+      REQUIRE(UndistortPixel(camera, Eigen::Vector2d(u, v), &normalized));
+      const double exact = std::sqrt(1 + normalized.squaredNorm());
+      worst = std::max(worst, std::abs(length.at<float>(v, u) / exact - 1));
+      largest = std::max(largest, exact);
+    }
+  }
+  CHECK(largest > 1.2);   // the corners' rays are well off the axis
+  CHECK(worst < 5e-5);    // relative
+}
+
+// One embedding serves every view: the overlay built from it draws the same
+// layer as one that embeds its surfaces itself.
+TEST_CASE("overlay: a shared embedding draws as the overlay's own", "[stages][unit]") {
+  const sim::TetMesh mesh = OneTet();
+  OverlaySurface surface;
+  surface.mesh.vertices_m = Eigen::Matrix3Xd(3, 3);
+  surface.mesh.vertices_m << -0.01, 0.01, 0.0, -0.01, -0.01, 0.012, 0.1, 0.1, 0.11;
+  surface.mesh.triangles = Eigen::Matrix3Xi(3, 1);
+  surface.mesh.triangles << 0, 1, 2;
+  const LensView view(PinholeCalibration(160, 120, 200), Eigen::Isometry3d::Identity());
+  SurfaceOverlay own({}, mesh, {surface}, view);
+  SurfaceOverlay shared({}, SurfaceOverlay::Embed(mesh, {surface}), {surface}, view);
+  const OverlayLayer a = own.Process(mesh.X_m, 0), b = shared.Process(mesh.X_m, 0);
+  REQUIRE(cv::countNonZero(a.bgra.reshape(1) != 0) > 100);
+  REQUIRE(cv::norm(a.bgra, b.bgra, cv::NORM_INF) == 0);
+  OverlaySurface other = surface;
+  other.mesh.vertices_m.conservativeResize(3, 4);
+  other.mesh.vertices_m.col(3) = Eigen::Vector3d(0, 0, 0.12);
+  REQUIRE_THROWS_WITH(SurfaceOverlay({}, SurfaceOverlay::Embed(mesh, {surface}), {other}, view),
+                      Catch::Contains("the embedding is not of the surfaces' 4 vertices"));
 }
 
 TEST_CASE("overlay: bad surfaces, options and node counts are rejected", "[stages][unit]") {
