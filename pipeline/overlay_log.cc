@@ -10,11 +10,15 @@ namespace dg::pipeline {
 
 std::string OverlaySummary::Text(double wall_s) const {
   if (composed_frames == 0) return "overlays: no frame was simulated, so none was drawn\n";
+  std::string draw_times;
+  for (size_t k = 0; k < names.size(); ++k) {
+    draw_times += fmt::format("{}{} {:.1f}", k == 0 ? "" : ", ", names[k], draw_ms_median[k]);
+  }
   return fmt::format(
       "overlays: {} of {} simulated frames composed with every overlay's layer; layer age median {} / max {} "
-      "frames; {:.1f} overlay frames/s ({} draws per overlay in {:.2f} s)\n",
+      "frames; {:.1f} overlay frames/s ({} draws per overlay in {:.2f} s); draw ms median: {}\n",
       frames_with_layers, composed_frames, age_median_frames, age_max_frames, draws / std::max(wall_s, 1e-9), draws,
-      wall_s);
+      wall_s, draw_times);
 }
 
 OverlayLog::OverlayLog(io::RunLog& log, std::vector<std::string> overlay_names)
@@ -49,7 +53,15 @@ void OverlayLog::Consume(const FramePacket& packet) {
   }
 }
 
-void OverlayLog::Finish(std::int64_t start_steady_ns) {
+void OverlayLog::Finish(std::int64_t start_steady_ns, const std::string& quality) {
+  summary_.names = names_;
+  for (size_t k = 0; k < names_.size(); ++k) {
+    std::vector<double> ms;
+    for (const Draw& draw : draws_) {
+      if (draw.overlay == static_cast<std::int32_t>(k)) ms.push_back((draw.end_steady_ns - draw.start_steady_ns) * 1e-6);
+    }
+    summary_.draw_ms_median.push_back(sim::Median(ms));
+  }
   summary_.frames_with_layers = *std::min_element(frames_with_layer_.begin(), frames_with_layer_.end());
   summary_.draws = *std::min_element(drawn_.begin(), drawn_.end());
   if (!shown_ages_.empty()) {
@@ -72,6 +84,7 @@ void OverlayLog::Finish(std::int64_t start_steady_ns) {
   for (size_t k = 0; k < names_.size(); ++k) {
     log_.file().WriteAttribute("/overlay_timings", names_[k] + "_drawn", drawn_[k]);
   }
+  log_.file().WriteAttribute("/composite", "quality", quality);
 }
 
 }  // namespace dg::pipeline

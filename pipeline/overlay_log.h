@@ -17,6 +17,9 @@ struct OverlaySummary {
   std::int64_t frames_with_layers = 0;
   std::int64_t age_median_frames = -1, age_max_frames = -1;  // over every layer shown; -1 none shown
   std::int64_t draws = 0;  // per overlay (the fewest over the overlays)
+  // Per overlay, in drawing order: its name and its draws' median time (ms, both eyes).
+  std::vector<std::string> names;
+  std::vector<double> draw_ms_median;
 
   // One line for the run's summary, with the overlay frame rate over wall_s.
   std::string Text(double wall_s) const;
@@ -26,7 +29,8 @@ struct OverlaySummary {
 //   /composite        per composed frame: frame, layer_age_frames (one
 //                     column per overlay, in drawing order: frames since the
 //                     geometry of the layer that was laid over it; -1 none);
-//                     attribute overlay_names;
+//                     attributes overlay_names and quality (how finely
+//                     the overlays were drawn at the run's end);
 //   /overlay_timings  per draw: frame, overlay (index), start_ns, end_ns on
 //                     the run clock (both eyes' draws in a stereo run);
 //                     attributes <name>_drawn per overlay.
@@ -35,8 +39,9 @@ class OverlayLog {
   OverlayLog(io::RunLog& log, std::vector<std::string> overlay_names);
 
   void Consume(const FramePacket& packet);
-  // After the run: the draws' timings and counts. start_steady_ns: the run clock's zero.
-  void Finish(std::int64_t start_steady_ns);
+  // After the run: the draws' timings and counts, and the quality they were
+  // drawn at. start_steady_ns: the run clock's zero.
+  void Finish(std::int64_t start_steady_ns, const std::string& quality);
 
   const OverlaySummary& summary() const { return summary_; }
 

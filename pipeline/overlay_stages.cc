@@ -4,7 +4,6 @@
 #include <chrono>
 
 #include <fmt/format.h>
-#include <tbb/parallel_for.h>
 
 #include <opencv2/imgcodecs.hpp>
 
@@ -13,6 +12,8 @@
 #include "io/surface_mesh_reader.h"
 #include "pipeline/scene_geometry.h"
 #include "sim/error.h"
+#include "sim/log.h"
+#include "sim/statistics.h"
 #include "stages/fem_stage.h"
 #include "stages/overlay/surface_overlay.h"
 #include "stages/overlay/transfer_function.h"
@@ -36,43 +37,41 @@ OverlayDraw DrawWith(std::shared_ptr<Overlay> overlay) {
   return [overlay](const Eigen::Matrix3Xd& nodes_S, std::int64_t frame) { return overlay->Process(nodes_S, frame); };
 }
 
-OverlayFactory MeshesFactory(const io::Scene& scene, std::shared_ptr<const SimulationSetup> setup,
-                             const OverlayQuality& quality) {
+OverlayFactory MeshesFactory(const io::Scene& scene, std::shared_ptr<const SimulationSetup> setup) {
   const std::vector<overlay::OverlaySurface> surfaces = InternalMeshSurfaces(*scene.overlays);
   for (const overlay::OverlaySurface& surface : surfaces) CheckOverlayMeshSize(scene, surface.name, surface.mesh, setup->mesh);
-  return [=](const overlay::LensView& view, int layers_alive) {
+  // Embedded once, before the first frame: at the registration only the view remains to build.
+  const auto embedding = overlay::SurfaceOverlay::Embed(setup->mesh, surfaces);
+  return [=](const overlay::LensView& view, int layers_alive, const OverlayQuality& quality) {
     overlay::SurfaceOverlay::Options options;
     options.supersample = quality.surface_supersample;
     options.reserved_layers = layers_alive;
-    return DrawWith(std::make_shared<overlay::SurfaceOverlay>(options, setup->mesh, surfaces, view));
+    return DrawWith(std::make_shared<overlay::SurfaceOverlay>(options, embedding, surfaces, view));
   };
 }
 
-OverlayFactory TextureFactory(const io::Scene& scene, std::shared_ptr<const SimulationSetup> setup,
-                              const OverlayQuality& quality) {
-  const overlay::OverlaySurface surface = TexturedSurface(*scene.overlays);
-  CheckOverlayMeshSize(scene, surface.name, surface.mesh, setup->mesh);
-  overlay::SurfaceOverlay::Options options;
-  options.lit = false;  // landmarks and annotations in their own colours
-  options.supersample = quality.surface_supersample;
-  return [=](const overlay::LensView& view, int layers_alive) {
-    overlay::SurfaceOverlay::Options reserved = options;
-    reserved.reserved_layers = layers_alive;
-    return DrawWith(std::make_shared<overlay::SurfaceOverlay>(reserved, setup->mesh, std::vector{surface}, view));
+OverlayFactory TextureFactory(const io::Scene& scene, std::shared_ptr<const SimulationSetup> setup) {
+  const std::vector<overlay::OverlaySurface> surfaces{TexturedSurface(*scene.overlays)};
+  CheckOverlayMeshSize(scene, surfaces[0].name, surfaces[0].mesh, setup->mesh);
+  const auto embedding = overlay::SurfaceOverlay::Embed(setup->mesh, surfaces);
+  return [=](const overlay::LensView& view, int layers_alive, const OverlayQuality& quality) {
+    overlay::SurfaceOverlay::Options options;
+    options.lit = false;  // landmarks and annotations in their own colours
+    options.supersample = quality.surface_supersample;
+    options.reserved_layers = layers_alive;
+    return DrawWith(std::make_shared<overlay::SurfaceOverlay>(options, embedding, surfaces, view));
   };
 }
 
-OverlayFactory VolumeFactory(const std::string& ct_file, std::shared_ptr<const SimulationSetup> setup,
-                             const OverlayQuality& quality) {
+OverlayFactory VolumeFactory(const std::string& ct_file, std::shared_ptr<const SimulationSetup> setup) {
   // The first scan phase is the mesh's reference configuration.
   auto ct = std::make_shared<const io::VolumeI16>(io::ReadMetaImage<std::int16_t>(ct_file));
-  overlay::VolumeOverlay::Options options;
-  options.slice_spacing_m = quality.volume_slice_spacing_m;
-  options.resolution_divisor = quality.volume_resolution_divisor;
-  return [=](const overlay::LensView& view, int layers_alive) {
-    overlay::VolumeOverlay::Options reserved = options;
-    reserved.reserved_layers = layers_alive;
-    return DrawWith(std::make_shared<overlay::VolumeOverlay>(reserved, setup->mesh, ct,
+  return [=](const overlay::LensView& view, int layers_alive, const OverlayQuality& quality) {
+    overlay::VolumeOverlay::Options options;
+    options.slice_spacing_m = quality.volume_slice_spacing_m;
+    options.resolution_divisor = quality.volume_resolution_divisor;
+    options.reserved_layers = layers_alive;
+    return DrawWith(std::make_shared<overlay::VolumeOverlay>(options, setup->mesh, ct,
                                                              overlay::TransferFunction::CardiacDefault(), view));
   };
 }
@@ -114,6 +113,10 @@ OverlaysAdapter::OverlaysAdapter(const Options& options, std::vector<std::string
     throw Error("layers alive " + std::to_string(options_.layers_alive) + " is below 1", "overlays stage",
                 "give the graph's packets in flight");
   }
+  if (const std::string wrong = options_.quality.Validate(); !wrong.empty()) {
+    throw Error("invalid overlay quality: " + wrong, "overlays stage",
+                "correct --supersample, --volume-divisor or --volume-slice-mm");
+  }
   if (options_.T_C_S) BuildDrawings(*options_.T_C_S);
 }
 
@@ -121,11 +124,39 @@ void OverlaysAdapter::BuildDrawings(const Eigen::Isometry3d& T_C_S) {
   const overlay::LensView left(options_.calibration.left, T_C_S);
   std::optional<overlay::LensView> right;
   if (options_.right_eye) right.emplace(overlay::RightLensView(options_.calibration, T_C_S));
+  drawings_.clear();
   for (const OverlayFactory& factory : factories_) {
     std::array<OverlayDraw, 2>& eyes = drawings_.emplace_back();
-    eyes[0] = factory(left, options_.layers_alive);
-    if (right) eyes[1] = factory(*right, options_.layers_alive);
+    eyes[0] = factory(left, options_.layers_alive, options_.quality);
+    if (right) eyes[1] = factory(*right, options_.layers_alive, options_.quality);
   }
+}
+
+void OverlaysAdapter::FitToBudget(double draw_ms, const Eigen::Isometry3d& T_C_S) {
+  // A few frames' median, so that one slow frame (a page fault, the first
+  // touch of a buffer) does not coarsen the drawings for the whole run.
+  constexpr size_t kFrames = 5;
+  recent_draw_ms_.push_back(draw_ms);
+  if (recent_draw_ms_.size() < kFrames) return;
+  const double median_ms = sim::Median(recent_draw_ms_);
+  recent_draw_ms_.clear();
+  if (median_ms <= options_.draw_budget_ms) {
+    fitted_ = true;
+    Logger("pipeline").info("realtime: the overlays take {:.1f} ms a frame, within their {:.1f} ms share: {}",
+                            median_ms, options_.draw_budget_ms, options_.quality.Describe());
+    return;
+  }
+  const OverlayQuality before = options_.quality;
+  if (!options_.quality.CoarsenVolume(options_.calibration.left.width, options_.calibration.left.height)) {
+    fitted_ = true;
+    Logger("pipeline").warn("realtime: the overlays take {:.1f} ms a frame, above their {:.1f} ms share, at the "
+                            "coarsest volume ({}); frames the graph cannot keep up with are dropped whole",
+                            median_ms, options_.draw_budget_ms, before.Describe());
+    return;
+  }
+  Logger("pipeline").info("realtime: the overlays take {:.1f} ms a frame, above their {:.1f} ms share: now {}",
+                          median_ms, options_.draw_budget_ms, options_.quality.Describe());
+  BuildDrawings(T_C_S);
 }
 
 void OverlaysAdapter::Process(FramePacket& packet) {
@@ -137,16 +168,18 @@ void OverlaysAdapter::Process(FramePacket& packet) {
   if (!packet.simulation || !packet.registration) return;  // nothing simulated yet: the frame as it is
   if (drawings_.empty()) BuildDrawings(Eigen::Isometry3d(packet.registration->T_C_S));
   const Eigen::Matrix3Xd& nodes_S = packet.simulation->nodes_S_m;
-  // The overlays side by side: each one's serial set-up (embedding, cutting,
-  // binning) fills the gaps in the others' tiles. Each drawing is its own
-  // object, drawn by one task at a time, and its pixels never depend on the
-  // threads, so neither does the frame.
-  tbb::parallel_for(std::size_t{0}, count, [&](std::size_t k) {
+  // One overlay after the other, each on every core (its tiles): each draw's
+  // time is then its own, as `bench overlay` measures it.
+  for (size_t k = 0; k < count; ++k) {
     packet.draw_start_steady_ns[k] = SteadyNowNs();
     packet.layers[k] = drawings_[k][0](nodes_S, packet.index);
     if (options_.right_eye) packet.layers_right[k] = drawings_[k][1](nodes_S, packet.index);
     packet.draw_end_steady_ns[k] = SteadyNowNs();
-  });
+  }
+  if (options_.draw_budget_ms > 0 && !fitted_) {
+    FitToBudget((packet.draw_end_steady_ns.back() - packet.draw_start_steady_ns.front()) * 1e-6,
+                Eigen::Isometry3d(packet.registration->T_C_S));
+  }
 }
 
 std::string OverlayQuality::Validate() const {
@@ -160,18 +193,22 @@ std::string OverlayQuality::Validate() const {
   return {};
 }
 
+bool OverlayQuality::CoarsenVolume(int width, int height) {
+  if (volume_resolution_divisor >= 8 || volume_slice_spacing_m > 5e-3) return false;
+  const int divisor = 2 * volume_resolution_divisor;
+  if (width % divisor == 0 && height % divisor == 0) volume_resolution_divisor = divisor;
+  volume_slice_spacing_m *= 1.5;
+  return true;
+}
+
 std::string OverlayQuality::Describe() const {
   return fmt::format("surfaces at {} sample(s) per pixel per axis, the CT volume at 1/{} resolution in {:.2g} mm slices",
                      surface_supersample, volume_resolution_divisor, volume_slice_spacing_m * 1e3);
 }
 
-OverlayPlan PlanOverlays(const io::Scene& scene, std::shared_ptr<const SimulationSetup> setup,
-                         const OverlayQuality& quality) {
+OverlayPlan PlanOverlays(const io::Scene& scene, std::shared_ptr<const SimulationSetup> setup) {
   OverlayPlan plan;
   if (!scene.overlays) return plan;
-  if (const std::string wrong = quality.Validate(); !wrong.empty()) {
-    throw Error("invalid overlay quality: " + wrong, scene.path, "correct --supersample, --volume-divisor or --volume-slice-mm");
-  }
   const io::Scene::Overlays& assets = *scene.overlays;
   const bool has_texture = !assets.surface_mesh.empty() && !assets.surface_texture.empty();
   const bool has_volume = scene.preoperative && !scene.preoperative->ct_volumes.empty();
@@ -194,13 +231,13 @@ OverlayPlan PlanOverlays(const io::Scene& scene, std::shared_ptr<const Simulatio
     }
     if (name == "texture") {
       plan.compositor.layers.push_back({name, overlay::BlendMode::kAlpha});
-      plan.factories.push_back(TextureFactory(scene, setup, quality));
+      plan.factories.push_back(TextureFactory(scene, setup));
     } else if (name == "volume") {
       plan.compositor.layers.push_back({name, anatomy_blend});
-      plan.factories.push_back(VolumeFactory(scene.preoperative->ct_volumes.front(), setup, quality));
+      plan.factories.push_back(VolumeFactory(scene.preoperative->ct_volumes.front(), setup));
     } else {
       plan.compositor.layers.push_back({name, anatomy_blend});
-      plan.factories.push_back(MeshesFactory(scene, setup, quality));
+      plan.factories.push_back(MeshesFactory(scene, setup));
     }
   }
   return plan;

@@ -28,11 +28,31 @@ namespace dg::pipeline {
 
 // Draws one frame's layer from the simulated nodes (scan frame).
 using OverlayDraw = std::function<stages::overlay::OverlayLayer(const Eigen::Matrix3Xd& nodes_S, std::int64_t frame)>;
-// Builds an overlay's drawing through one eye, once the registration (the
-// camera's pose, in the view) is known. Called once per eye: each drawing
-// has buffers of its own, and allocates `layers_alive` layers up front (the
-// most that are ever alive at once), so that drawing allocates none.
-using OverlayFactory = std::function<OverlayDraw(const stages::overlay::LensView& view, int layers_alive)>;
+struct OverlayQuality;
+// Builds an overlay's drawing through one eye at a quality, once the
+// registration (the camera's pose, in the view) is known. Called once per eye
+// (and again when a realtime run coarsens the quality): each drawing has
+// buffers of its own, and allocates `layers_alive` layers up front (the most
+// that are ever alive at once), so that drawing allocates none.
+using OverlayFactory = std::function<OverlayDraw(const stages::overlay::LensView& view, int layers_alive,
+                                                 const OverlayQuality& quality)>;
+
+// How finely the overlays are drawn: one setting for a run's drawings and
+// `dynaguide bench overlay`'s, so that the benchmark times what a run draws.
+// The defaults fit all three overlays, the simulation and the front end into
+// a 30 fps frame on two cores (docs/design.md#overlays).
+struct OverlayQuality {
+  int surface_supersample = 1;      // samples per pixel per axis of the texture and meshes (2: smooth edges, 4x the work)
+  double volume_slice_spacing_m = 2e-3;  // the CT volume's slices (opacity-corrected, so a coarser spacing keeps the tissue's density)
+  int volume_resolution_divisor = 2;     // the CT volume at 1/divisor of the image's resolution per axis
+
+  std::string Validate() const;  // empty when valid
+  std::string Describe() const;  // one line, for the run's log
+  // The next coarser CT volume for a width x height image (twice the
+  // divisor where that divides the image, 1.5 times the spacing), or false
+  // when it is as coarse as a realtime run goes (divisor 8 or spacing beyond 5 mm).
+  bool CoarsenVolume(int width, int height);
+};
 
 // overlays: packet.simulation (+ registration) -> packet.layers (and
 // packet.layers_right in a stereo run), one per overlay in drawing order,
@@ -51,10 +71,17 @@ class OverlaysAdapter final : public PacketStage {
     // The registered pose, when the scene gives it: the drawings are built
     // here, before the first frame, rather than at the first registered one.
     std::optional<Eigen::Isometry3d> T_C_S;
+    OverlayQuality quality;
+    // Realtime: the drawings' share of a frame period on all cores (ms). If
+    // the median of a few frames' drawings exceeds it, the CT volume is
+    // drawn more coarsely (OverlayQuality::CoarsenVolume) until they fit or
+    // it is as coarse as it goes; each step is logged. 0: the quality stays
+    // (offline, where the video must not depend on the machine's pace).
+    double draw_budget_ms = 0;
   };
   // names, factories: one per overlay, in drawing order.
-  // @throws dg::Error when names and factories differ in number, or
-  // layers_alive is below 1.
+  // @throws dg::Error when names and factories differ in number,
+  // layers_alive is below 1, or the quality is invalid.
   OverlaysAdapter(const Options& options, std::vector<std::string> names, std::vector<OverlayFactory> factories);
   const std::string& name() const override { return name_; }
   bool stateful() const override { return true; }
@@ -62,10 +89,14 @@ class OverlaysAdapter final : public PacketStage {
   void Process(FramePacket& packet) override;
 
   const std::vector<std::string>& overlay_names() const { return names_; }
+  // The quality the overlays are drawn at now.
+  const OverlayQuality& quality() const { return options_.quality; }
 
  private:
   // The eyes' drawings, through the lenses at the registered pose.
   void BuildDrawings(const Eigen::Isometry3d& T_C_S);
+  // Realtime: one frame's drawing time against the budget.
+  void FitToBudget(double draw_ms, const Eigen::Isometry3d& T_C_S);
 
   std::string name_ = "overlays";
   Options options_;
@@ -73,19 +104,8 @@ class OverlaysAdapter final : public PacketStage {
   std::vector<OverlayFactory> factories_;
   // Per overlay, the left eye's drawing then (stereo) the right's; empty until the pose is known.
   std::vector<std::array<OverlayDraw, 2>> drawings_;
-};
-
-// How finely the overlays are drawn: one setting for a run's drawings and
-// `dynaguide bench overlay`'s, so that the benchmark times what a run draws.
-// The defaults fit all three overlays, the simulation and the front end into
-// a 30 fps frame on two cores (docs/design.md#overlays).
-struct OverlayQuality {
-  int surface_supersample = 1;      // samples per pixel per axis of the texture and meshes (2: smooth edges, 4x the work)
-  double volume_slice_spacing_m = 2e-3;  // the CT volume's slices (opacity-corrected, so a coarser spacing keeps the tissue's density)
-  int volume_resolution_divisor = 2;     // the CT volume at 1/divisor of the image's resolution per axis
-
-  std::string Validate() const;  // empty when valid
-  std::string Describe() const;  // one line, for the run's log
+  std::vector<double> recent_draw_ms_;  // realtime: the frames since the quality last changed
+  bool fitted_ = false;                 // realtime: the quality is settled
 };
 
 // What the scene's overlays are, in drawing order: "texture" (surface_mesh
@@ -104,10 +124,8 @@ std::vector<stages::overlay::OverlaySurface> InternalMeshSurfaces(const io::Scen
 stages::overlay::OverlaySurface TexturedSurface(const io::Scene::Overlays& assets);
 
 // setup: the simulation the overlays draw (its mesh embeds them).
-// @throws dg::Error for an overlay whose assets the scene lacks, an
-// unreadable asset, or an invalid quality.
-OverlayPlan PlanOverlays(const io::Scene& scene, std::shared_ptr<const SimulationSetup> setup,
-                         const OverlayQuality& quality);
+// @throws dg::Error for an overlay whose assets the scene lacks, or an unreadable asset.
+OverlayPlan PlanOverlays(const io::Scene& scene, std::shared_ptr<const SimulationSetup> setup);
 
 // composite: packet.raw.left + packet.layers -> packet.composite (with
 // packet.layer_age_frames), and in a stereo run packet.raw.right +

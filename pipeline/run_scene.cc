@@ -185,7 +185,7 @@ RunOutcome RunScene(const RunOptions& options) {
   const GraphRunResult result = built.graph->Run(sink);
   progress.Finish();
   if (overlay_log) {
-    overlay_log->Finish(result.start_steady_ns);
+    overlay_log->Finish(result.start_steady_ns, built.overlays_stage->quality().Describe());
     outcome.overlays = overlay_log->summary();
   }
   if (video) {

@@ -130,16 +130,22 @@ SceneGraph BuildSceneGraph(const io::Scene& scene, const GraphOptions& options, 
   std::unique_ptr<PacketStage> draw, composite;
   if (scene.simulation) {
     built.simulation = LoadSimulationSetup(scene);
-    OverlayPlan overlays = PlanOverlays(scene, built.simulation, overlay_settings.quality);
+    OverlayPlan overlays = PlanOverlays(scene, built.simulation);
     if (!overlays.factories.empty()) {
       Logger("pipeline").info("overlays drawn for every simulated frame: {}", overlay_settings.quality.Describe());
       OverlaysAdapter::Options drawing;
       drawing.calibration = built.calibration;
       drawing.right_eye = overlay_settings.right_eye;
       drawing.layers_alive = options.max_in_flight;
+      drawing.quality = overlay_settings.quality;
+      // Realtime, the drawings get half of each frame period on both cores;
+      // the simulation, the composite and the next frame's front end the rest.
+      if (options.policy == Policy::kRealtime) drawing.draw_budget_ms = 0.5e3 / scene.video.fps;
       if (built.given_registration) drawing.T_C_S = Eigen::Isometry3d(built.given_registration->T_C_S);
       for (const auto& entry : overlays.compositor.layers) built.overlay_names.push_back(entry.name);
-      draw = std::make_unique<OverlaysAdapter>(drawing, built.overlay_names, std::move(overlays.factories));
+      auto stage = std::make_unique<OverlaysAdapter>(drawing, built.overlay_names, std::move(overlays.factories));
+      built.overlays_stage = stage.get();
+      draw = std::move(stage);
       composite = std::make_unique<CompositeAdapter>(
           std::make_shared<const stages::overlay::Compositor>(overlays.compositor), overlay_settings.right_eye);
     }

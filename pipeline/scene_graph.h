@@ -41,6 +41,9 @@ struct SceneGraph {
   std::shared_ptr<const SimulationSetup> simulation;
   // The overlays the graph draws, in drawing order (empty without overlays).
   std::vector<std::string> overlay_names;
+  // The graph's overlays stage (owned by the graph), for the quality it ended
+  // at; null without overlays.
+  const OverlaysAdapter* overlays_stage = nullptr;
 };
 
 // The graph a scene needs and nothing more: capture,

@@ -8,13 +8,11 @@ namespace dg::pipeline {
 
 // Where the FEM stage's solver runs its helper workers (sim::StepTeam) in a
 // run: tasks of a flow-graph node whose priority is above the stages'. In
-// the graph, the thread that is not stepping always has work queued (the
-// next frames' tracking, an overlay's draw tile by tile), so a plain task
-// enqueued for a helper waited behind all of it and the solver stepped alone;
-// a task of a prioritised node is taken at that thread's next task boundary.
-// The overlays and tracking then wait while the simulation steps on both
-// cores: the simulation is the chain's slowest stage, the overlays draw the
-// newest geometry whenever they get a turn.
+// the graph, the thread that is not stepping often has work queued (the next
+// frame's tracking), so a plain task enqueued for a helper waited behind it
+// and the solver stepped alone; a task of a prioritised node is taken at
+// that thread's next task boundary. The next frame's front end then waits
+// while the simulation steps on both cores.
 class SolverHelpers {
  public:
   // Made on the thread that runs the graph, so its tasks go to the graph's arena.

@@ -280,6 +280,18 @@ def run_rows(t):
                        f"of {rs[0].get('frames')} frames")
             t.add(f"Whole graph on the default phantom, no annotated video, real time, {threads} threads, "
                   f"{n} runs in one process", f"{dropped}; {latency}", "no drop", "run.json", rs)
+        shown = [r["overlays"] for r in rs if "overlays" in r]
+        if shown:
+            with_layers = sum(o["frames_with_layers"] for o in shown)
+            composed = sum(o["composed_frames"] for o in shown)
+            draws = ", ".join(f"{name} {num(statistics.median(o['draw_ms_median'][name] for o in shown))}"
+                              for name in shown[0]["draw_ms_median"])
+            t.add(f"What is shown, {policy}, {threads} threads: layers over the simulated frames, their age, "
+                  f"each overlay's draw in the run",
+                  f"{with_layers} of {composed} frames with every layer; age median "
+                  f"{max(o['layer_age_median_frames'] for o in shown)} / max "
+                  f"{max(o['layer_age_max_frames'] for o in shown)} frames; draw ms median {draws}",
+                  "age 0 / max 1, layers on 98%", "run.json", rs)
 
 
 def front_end_rows(t):

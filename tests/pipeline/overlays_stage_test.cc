@@ -100,7 +100,7 @@ io::StereoCalibration StereoPair() {
 // An overlay whose layer's blue is the frame its geometry says (x of node
 // 0) over 255, and which records the frame it was asked to draw.
 OverlayFactory FrameCodedOverlay(std::shared_ptr<std::vector<std::int64_t>> asked) {
-  return [asked](const stages::overlay::LensView&, int) {
+  return [asked](const stages::overlay::LensView&, int, const OverlayQuality&) {
     return [asked](const Eigen::Matrix3Xd& nodes_S, std::int64_t frame) {
       Enter();
       asked->push_back(frame);
@@ -200,7 +200,7 @@ struct LensLog {
 };
 
 OverlayFactory EyeColouredOverlay(std::shared_ptr<LensLog> log) {
-  return [log](const stages::overlay::LensView& view, int layers_alive) {
+  return [log](const stages::overlay::LensView& view, int layers_alive, const OverlayQuality&) {
     {
       std::lock_guard lock(log->mutex);
       log->views.push_back(view);
@@ -328,6 +328,44 @@ TEST_CASE("overlays stage: a given pose builds the drawings up front, sized to t
                       Catch::Contains("layers alive 0"));
   REQUIRE_THROWS_WITH(OverlaysAdapter(LeftEyeAt(T_C_S), {"eye", "two"}, {EyeColouredOverlay(lenses)}),
                       Catch::Contains("2 overlay names for 1 drawings"));
+}
+
+}  // namespace dg::pipeline
+
+namespace dg::pipeline {
+
+// Realtime, a drawing over its share of the frame period coarsens the CT
+// volume step by step, and one within it keeps the quality: shares of 1 ns
+// and of an hour make the outcome independent of the machine's pace.
+TEST_CASE("overlays stage: realtime fits the volume's quality to the drawings' share", "[pipeline][unit]") {
+  const auto run = [](double budget_ms) {
+    auto qualities = std::make_shared<std::vector<int>>();  // the divisor of every drawing built
+    OverlayFactory factory = [qualities](const stages::overlay::LensView&, int, const OverlayQuality& quality) {
+      qualities->push_back(quality.volume_resolution_divisor);
+      return [](const Eigen::Matrix3Xd&, std::int64_t frame) {
+        return stages::overlay::OverlayLayer{cv::Mat(kSize, CV_32FC4, cv::Scalar::all(0)), frame};
+      };
+    };
+    OverlaysAdapter::Options options = LeftEyeAt(Eigen::Isometry3d::Identity());
+    options.draw_budget_ms = budget_ms;
+    OverlaysAdapter stage(options, {"volume"}, {factory});
+    GeometryStage simulate;
+    BlankSource source;
+    FramePacket packet;
+    while (source.Read(packet)) {
+      simulate.Process(packet);
+      stage.Process(packet);
+    }
+    return std::pair(*qualities, stage.quality());
+  };
+  const auto [within, kept] = run(3.6e6);
+  CHECK(within == std::vector<int>{2});
+  CHECK(kept.volume_resolution_divisor == 2);
+  const auto [over, coarsest] = run(1e-6);
+  // 2 -> 4 -> 8 (spacing 2 -> 3 -> 4.5 mm), five frames apart, then no coarser.
+  CHECK(over == std::vector<int>{2, 4, 8});
+  CHECK(coarsest.volume_resolution_divisor == 8);
+  CHECK(coarsest.volume_slice_spacing_m == Approx(4.5e-3));
 }
 
 }  // namespace dg::pipeline

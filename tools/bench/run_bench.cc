@@ -65,6 +65,7 @@ std::vector<RunBenchRecord> RunRunBench(const RunBenchOptions& options, bool pro
       const pipeline::RunOutcome outcome = pipeline::RunScene(run);
       record.statistics = outcome.statistics;
       record.simulated_frames = outcome.simulated_frames;
+      record.overlays = outcome.overlays;
       records.push_back(std::move(record));
     }
   }
@@ -108,19 +109,30 @@ void WriteRunBenchJson(const std::string& path, const std::vector<RunBenchRecord
   std::vector<std::string> texts;
   for (const RunBenchRecord& r : records) {
     const pipeline::RunStatistics& s = r.statistics;
-    const nlohmann::ordered_json record = {{"policy", pipeline::PolicyName(r.policy)},
-                                           {"threads", r.threads},
-                                           {"repeat", r.repeat + 1},
-                                           {"frames", s.frames},
-                                           {"dropped", s.dropped},
-                                           {"realtime_factor", Significant(s.realtime_factor, 4)},
-                                           {"latency_ms_median", Significant(s.latency_median_ms, 4)},
-                                           {"latency_ms_p95", Significant(s.latency_p95_ms, 4)},
-                                           {"simulated_frames", r.simulated_frames},
-                                           {"host_took_percent", Significant(r.host.per_core_percent, 3)},
-                                           {"host_took_any_core_percent", Significant(r.host.any_core_percent, 3)},
-                                           {"core_load_store_gb_s", SignificantEach(r.core_load_store_gb_s, 3)},
-                                           {"stages", nlohmann::ordered_json::parse(StageTimingsJson(s))}};
+    nlohmann::ordered_json record = {{"policy", pipeline::PolicyName(r.policy)},
+                                     {"threads", r.threads},
+                                     {"repeat", r.repeat + 1},
+                                     {"frames", s.frames},
+                                     {"dropped", s.dropped},
+                                     {"realtime_factor", Significant(s.realtime_factor, 4)},
+                                     {"latency_ms_median", Significant(s.latency_median_ms, 4)},
+                                     {"latency_ms_p95", Significant(s.latency_p95_ms, 4)},
+                                     {"simulated_frames", r.simulated_frames},
+                                     {"host_took_percent", Significant(r.host.per_core_percent, 3)},
+                                     {"host_took_any_core_percent", Significant(r.host.any_core_percent, 3)},
+                                     {"core_load_store_gb_s", SignificantEach(r.core_load_store_gb_s, 3)},
+                                     {"stages", nlohmann::ordered_json::parse(StageTimingsJson(s))}};
+    if (r.overlays) {
+      nlohmann::ordered_json draws;
+      for (size_t k = 0; k < r.overlays->names.size(); ++k) {
+        draws[r.overlays->names[k]] = Significant(r.overlays->draw_ms_median[k], 4);
+      }
+      record["overlays"] = {{"composed_frames", r.overlays->composed_frames},
+                            {"frames_with_layers", r.overlays->frames_with_layers},
+                            {"layer_age_median_frames", r.overlays->age_median_frames},
+                            {"layer_age_max_frames", r.overlays->age_max_frames},
+                            {"draw_ms_median", draws}};
+    }
     texts.push_back(JsonText(record, -1));
   }
   WriteBenchJson(path, texts);

@@ -1,8 +1,10 @@
 #pragma once
 
+#include <optional>
 #include <string>
 #include <vector>
 
+#include "pipeline/overlay_log.h"
 #include "pipeline/run_statistics.h"
 #include "pipeline/stage_graph.h"
 #include "tools/bench/host_interruptions.h"
@@ -24,6 +26,7 @@ struct RunBenchRecord {
   int repeat = 0;
   pipeline::RunStatistics statistics;  // dropped, real-time factor, latency, each stage's timings
   std::int64_t simulated_frames = 0;
+  std::optional<pipeline::OverlaySummary> overlays;  // a scene with overlays: what they showed, their draw times
   // The machine just before the run: what the host took from `threads`
   // cores (tools/bench/host_interruptions.h), and each core alone at L1
   // loads and stores (tools/bench/machine_peaks.h), so that a slow run is
@@ -39,7 +42,9 @@ std::string RunBenchTable(const std::vector<RunBenchRecord>& records);
 // Records with policy, threads, repeat, frames, dropped, realtime_factor,
 // latency_ms_median, latency_ms_p95, simulated_frames, host_took_percent,
 // host_took_any_core_percent, core_load_store_gb_s (just before the run),
-// each stage's median and p95 ms, and the machine.
+// each stage's median and p95 ms, with overlays the frames composed with
+// every layer, the layers' median and largest age and each overlay's median
+// draw ms in the run, and the machine.
 void WriteRunBenchJson(const std::string& path, const std::vector<RunBenchRecord>& records);
 
 }  // namespace dg::tools
