@@ -2,7 +2,7 @@
 // reads back through the HDF5 C API (not the writer's code) with the
 // documented datasets, row counts and attributes; a run stopped by a failing
 // stage leaves a readable log marked incomplete; the report recomputes the
-// run's summary from the saved log. With --video-layout side_by_side the video
+// run's summary and its overlays' layer ages from the saved log. With --video-layout side_by_side the video
 // and the snapshots show both eyes, each with its own eye's overlays.
 #include <sched.h>
 
@@ -170,6 +170,52 @@ TEST_CASE("run: the tiny phantom end to end, and its report", "[tools][integrati
     const cv::Mat image = cv::imread(plot);
     CHECK(image.cols == 1200);
     CHECK(image.rows == 600);
+
+    // The overlays' layer ages: a plot of the same size, and per overlay a
+    // summary that /composite, read through the plain C API, bears out.
+    const std::string age_plot = TinyPhantomDir() + "/run/layer_age.png";
+    WriteLayerAgePlot(saved, age_plot);
+    const cv::Mat age_image = cv::imread(age_plot);
+    CHECK(age_image.cols == 1200);
+    CHECK(age_image.rows == 600);
+    const hid_t log = H5Fopen(outcome.log_path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+    REQUIRE(log >= 0);
+    const std::vector<double> layer_ages = Doubles(log, "/composite/layer_age_frames");
+    const hsize_t composed = Rows(log, "/composite/frame");
+    H5Fclose(log);
+    const std::vector<LayerAgeSummary> summaries = SummarizeLayerAges(saved);
+    const std::vector<std::string> overlays = {"texture", "volume", "meshes"};
+    REQUIRE(summaries.size() == overlays.size());
+    for (size_t k = 0; k < overlays.size(); ++k) {
+      std::vector<double> ages;  // the frames composed with the overlay's layer
+      for (hsize_t row = 0; row < composed; ++row) {
+        const double age = layer_ages[row * overlays.size() + k];
+        if (age >= 0) ages.push_back(age);
+      }
+      REQUIRE(ages.size() == simulated);
+      std::sort(ages.begin(), ages.end());
+      const double median = ages.size() % 2 ? ages[ages.size() / 2]
+                                            : (ages[ages.size() / 2 - 1] + ages[ages.size() / 2]) / 2;
+      const LayerAgeSummary& summary = summaries[k];
+      CHECK(summary.overlay == overlays[k]);
+      CHECK(summary.composed_frames == static_cast<std::int64_t>(composed));
+      CHECK(summary.frames_with_layer == static_cast<std::int64_t>(ages.size()));
+      CHECK(summary.median_age_frames == median);
+      CHECK(summary.max_age_frames == ages.back());
+      CHECK(summary.Text() == overlays[k] + ": layer on " + std::to_string(ages.size()) + " of " +
+                                  std::to_string(composed) + " composed frames, age median 0, max 0 frames");
+    }
+
+    // A run log without /composite (a run without overlays) has no layer ages to summarise.
+    const std::string bare = TinyPhantomDir() + "/run/bare.h5";
+    fs::copy_file(outcome.log_path, bare, fs::copy_options::overwrite_existing);
+    const hid_t bare_file = H5Fopen(bare.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+    REQUIRE(bare_file >= 0);
+    REQUIRE(H5Ldelete(bare_file, "/composite", H5P_DEFAULT) >= 0);
+    H5Fclose(bare_file);
+    const SavedRun without_overlays = ReadSavedRun(bare);
+    CHECK(without_overlays.overlay_names.empty());
+    CHECK(SummarizeLayerAges(without_overlays).empty());
   }
 }
 

@@ -45,6 +45,11 @@ void AddEvalCommand(CLI::App& app) {
   protocol->add_option("--seeds", args->protocol.seeds, "Phantom seeds when no scene is given (e.g. 1,2,3)")
       ->delimiter(',')
       ->capture_default_str();
+  protocol->add_option("--policy", args->protocol.policies,
+                       "Policies each mode runs under: offline (lossless), realtime (paced to the video, drops "
+                       "frames), or both")
+      ->delimiter(',')
+      ->capture_default_str();
   phantom::AddBeatOptions(protocol, &args->protocol.beat);
   protocol->add_option("--out", args->protocol.out_dir, "Output directory: runs/, report.md, CSV tables, PNG figures")
       ->capture_default_str();

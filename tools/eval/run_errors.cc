@@ -60,6 +60,42 @@ std::vector<double> TypicalFeatureCourse(const RunErrors& run, size_t rows, int*
   return course;
 }
 
+// Errors pooled over rows: the average and RMS weighed (a surface row by its
+// point count, an internal point once), and the largest.
+struct Pool {
+  int rows = 0;
+  double weight = 0, sum = 0, squares = 0, largest = 0;
+
+  void Add(double w, double mean, double rms, double max) {
+    weight += w;
+    sum += w * mean;
+    squares += w * rms * rms;
+    largest = std::max(largest, max);
+  }
+  void AddSurfaceRow(const RunErrors& run, size_t r) {
+    ++rows;
+    Add(run.surface_points[r], run.surface_mean_mm[r], run.surface_rms_mm[r], run.surface_max_mm[r]);
+  }
+  void AddInternalRow(const RunErrors& run, size_t r) {
+    ++rows;
+    for (int p = 0; p < run.internal_points; ++p) {
+      const double e = run.internal_mm[r * run.internal_points + p];
+      Add(1, e, e, e);
+    }
+  }
+  // no_rows: the figures over no rows (0 for an empty window; NaN for a layer never shown, which has none).
+  void Write(double no_rows, double* avg, double* max, double* rms) const {
+    *avg = rows == 0 ? no_rows : weight > 0 ? sum / weight : 0;
+    *rms = rows == 0 ? no_rows : weight > 0 ? std::sqrt(squares / weight) : 0;
+    *max = rows == 0 ? no_rows : largest;
+  }
+};
+
+// Whether row r was composed with the layer whose ages these are, drawn from the row's own state.
+bool Shown(const std::vector<std::int64_t>& layer_age_frames, size_t r) {
+  return r < layer_age_frames.size() && layer_age_frames[r] == 0;
+}
+
 }  // namespace
 
 RunErrors ReadRunErrors(const std::string& run_h5) {
@@ -76,6 +112,7 @@ RunErrors ReadRunErrors(const std::string& run_h5) {
     run.mode =
         sim::ParseSimulationMode(scene["simulation"]["mode"].as<std::string>(), run_h5 + ": /scene simulation.mode");
   }
+  if (file.HasAttribute("/", "policy")) run.policy = file.ReadAttribute<std::string>("/", "policy");
   run.fps = file.ReadAttribute<double>("/", "fps");
   run.complete = file.ReadAttribute<std::int64_t>("/", "complete") == 1;
   const double wall_s = file.HasAttribute("/", "wall_s") ? file.ReadAttribute<double>("/", "wall_s") : 0;
@@ -92,6 +129,10 @@ RunErrors ReadRunErrors(const std::string& run_h5) {
   run.surface_mean_mm = Column<double>(file, "surface_mean_mm");
   run.surface_rms_mm = Column<double>(file, "surface_rms_mm");
   run.surface_max_mm = Column<double>(file, "surface_max_mm");
+  if (file.Has("/errors/surface_layer_age_frames")) {
+    run.surface_layer_age_frames = Column<std::int64_t>(file, "surface_layer_age_frames");
+    run.internal_layer_age_frames = Column<std::int64_t>(file, "internal_layer_age_frames");
+  }
   if (file.Has("/errors/surface_mm")) run.surface_mm = Column<double>(file, "surface_mm", &run.truth_surface_points);
   run.internal_mm = Column<double>(file, "internal_mm", &run.internal_points);
   run.fiducial_sim_mm = Column<double>(file, "fiducial_sim_mm", &run.fiducials);
@@ -103,7 +144,10 @@ RunErrors ReadRunErrors(const std::string& run_h5) {
                                 run.fiducial_sim_mm.size() / std::max(1, run.fiducials),
                                 run.fiducial_model_mm.size() / std::max(1, run.fiducials),
                                 run.surface_mm.empty() ? run.frame.size()
-                                                       : run.surface_mm.size() / std::max(1, run.truth_surface_points)});
+                                                       : run.surface_mm.size() / std::max(1, run.truth_surface_points),
+                                run.surface_layer_age_frames.empty() ? run.frame.size()
+                                                                     : std::min(run.surface_layer_age_frames.size(),
+                                                                                run.internal_layer_age_frames.size())});
   run.frame.resize(rows);
   run.t_s.resize(rows);
   run.surface_points.resize(rows);
@@ -111,6 +155,10 @@ RunErrors ReadRunErrors(const std::string& run_h5) {
   run.surface_rms_mm.resize(rows);
   run.surface_max_mm.resize(rows);
   if (!run.surface_mm.empty()) run.surface_mm.resize(rows * run.truth_surface_points);
+  if (!run.surface_layer_age_frames.empty()) {
+    run.surface_layer_age_frames.resize(rows);
+    run.internal_layer_age_frames.resize(rows);
+  }
   run.internal_mm.resize(rows * run.internal_points);
   run.fiducial_sim_mm.resize(rows * run.fiducials);
   run.fiducial_model_mm.resize(rows * run.fiducials);
@@ -118,10 +166,17 @@ RunErrors ReadRunErrors(const std::string& run_h5) {
   return run;
 }
 
+size_t WindowRows(const RunErrors& run, int frames) {
+  if (frames < 0 || run.frame.empty()) return run.frame.size();
+  const std::int64_t end = run.frame.front() + frames;
+  return std::partition_point(run.frame.begin(), run.frame.end(), [end](std::int64_t f) { return f < end; }) -
+         run.frame.begin();
+}
+
 ErrorFigures Figures(const std::vector<const RunErrors*>& runs, int frames) {
   ErrorFigures figures;
-  double surface_points = 0, surface_sum = 0, surface_sq = 0;
-  double internal_count = 0, internal_sum = 0, internal_sq = 0;
+  Pool surface, internal, shown_surface, shown_internal;
+  int rows_with_ages = 0;
   std::vector<double> fiducial_sim, fiducial_model;
   double fiducial_rows = 0;
   std::vector<double> typical_course;
@@ -133,25 +188,21 @@ ErrorFigures Figures(const std::vector<const RunErrors*>& runs, int frames) {
     if (run->fiducials != static_cast<int>(fiducial_sim.size())) {
       throw Error("runs with different fiducial counts cannot be pooled", run->path, "evaluate one phantom design");
     }
-    const size_t rows = frames < 0 ? run->frame.size() : std::min(run->frame.size(), static_cast<size_t>(frames));
+    const size_t rows = WindowRows(*run, frames);
     int candidates = 0;
     const std::vector<double> course = TypicalFeatureCourse(*run, rows, &candidates);
     typical_course.insert(typical_course.end(), course.begin(), course.end());
     figures.typical_points += candidates;
+    if (!run->surface_layer_age_frames.empty()) rows_with_ages += static_cast<int>(rows);
     for (size_t r = 0; r < rows; ++r) {
       ++figures.frames;
-      const double n = run->surface_points[r];
-      surface_points += n;
-      surface_sum += n * run->surface_mean_mm[r];
-      surface_sq += n * run->surface_rms_mm[r] * run->surface_rms_mm[r];
-      figures.surface_max_mm = std::max(figures.surface_max_mm, run->surface_max_mm[r]);
-      for (int p = 0; p < run->internal_points; ++p) {
-        const double e = run->internal_mm[r * run->internal_points + p];
-        ++internal_count;
-        internal_sum += e;
-        internal_sq += e * e;
-        figures.internal_max_mm = std::max(figures.internal_max_mm, e);
-      }
+      surface.AddSurfaceRow(*run, r);
+      internal.AddInternalRow(*run, r);
+      const bool surface_shown = Shown(run->surface_layer_age_frames, r);
+      const bool internal_shown = Shown(run->internal_layer_age_frames, r);
+      if (surface_shown) shown_surface.AddSurfaceRow(*run, r);
+      if (internal_shown) shown_internal.AddInternalRow(*run, r);
+      figures.shown_frames += surface_shown && internal_shown;
       for (int i = 0; i < run->fiducials; ++i) {
         fiducial_sim[i] += run->fiducial_sim_mm[r * run->fiducials + i];
         fiducial_model[i] += run->fiducial_model_mm[r * run->fiducials + i];
@@ -171,17 +222,16 @@ ErrorFigures Figures(const std::vector<const RunErrors*>& runs, int frames) {
     figures.phase_error_mean_ms /= figures.phase_frames;
     figures.registered_phase_error_mean_ms /= figures.phase_frames;
   }
-  if (surface_points > 0) {
-    figures.surface_avg_mm = surface_sum / surface_points;
-    figures.surface_rms_mm = std::sqrt(surface_sq / surface_points);
-  }
-  if (internal_count > 0) {
-    figures.internal_avg_mm = internal_sum / internal_count;
-    figures.internal_rms_mm = std::sqrt(internal_sq / internal_count);
-  }
-  if (typical_course.empty()) {
-    figures.typical_avg_mm = figures.typical_max_mm = figures.typical_rms_mm = std::numeric_limits<double>::quiet_NaN();
-  }
+  constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+  surface.Write(0, &figures.surface_avg_mm, &figures.surface_max_mm, &figures.surface_rms_mm);
+  internal.Write(0, &figures.internal_avg_mm, &figures.internal_max_mm, &figures.internal_rms_mm);
+  shown_surface.Write(kNaN, &figures.shown_surface_avg_mm, &figures.shown_surface_max_mm,
+                      &figures.shown_surface_rms_mm);
+  shown_internal.Write(kNaN, &figures.shown_internal_avg_mm, &figures.shown_internal_max_mm,
+                       &figures.shown_internal_rms_mm);
+  figures.layer_present_fraction =
+      rows_with_ages > 0 ? static_cast<double>(figures.shown_frames) / rows_with_ages : kNaN;
+  if (typical_course.empty()) figures.typical_avg_mm = figures.typical_max_mm = figures.typical_rms_mm = kNaN;
   for (double e : typical_course) {
     figures.typical_avg_mm += e / typical_course.size();
     figures.typical_max_mm = std::max(figures.typical_max_mm, e);

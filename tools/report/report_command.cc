@@ -1,8 +1,9 @@
-// `dynaguide report RUN.h5`: the summary of a saved run, and its timing plot.
+// `dynaguide report RUN.h5`: the summary of a saved run, its timing plot and its overlays' layer-age plot.
 #include <cstdio>
 #include <filesystem>
 
 #include <CLI/CLI.hpp>
+#include <fmt/format.h>
 
 #include "tools/commands.h"
 #include "tools/eval/protocol.h"
@@ -16,7 +17,7 @@ namespace {
 
 struct ReportArguments {
   std::string log_path;
-  std::string plot_path;  // default: beside the log
+  std::string plot_path;  // default: beside the log; the layer-age plot goes beside it
   double cycles = 3;      // a directory's evaluation window
 };
 
@@ -53,19 +54,32 @@ void RunReportCommand(const ReportArguments& args) {
     std::printf("  its y axis ends at %.3g ms: %d stage times above it are marked on the top edge (largest %.3g ms)\n",
                 clipping.y_axis_max, clipping.points_above, clipping.largest_y);
   }
+  if (run.overlay_names.empty()) {
+    fmt::print("layer age plot: none, the run log has no /composite (a run without overlays)\n");
+    return;
+  }
+  // Beside the timing plot, named after the log as the default timing plot is.
+  const std::string age_plot = (std::filesystem::path(plot).parent_path() /
+                                (std::filesystem::path(args.log_path).stem().string() + "_layer_age.png"))
+                                   .string();
+  WriteLayerAgePlot(run, age_plot);
+  fmt::print("layer age plot: {}\n", age_plot);
+  for (const LayerAgeSummary& summary : SummarizeLayerAges(run)) fmt::print("  {}\n", summary.Text());
 }
 
 }  // namespace
 
 void AddReportCommand(CLI::App& app) {
   auto args = std::make_shared<ReportArguments>();
-  CLI::App* command = app.add_subcommand(
-      "report", "Summarise a saved run log and plot its stage timings, or tabulate a directory of evaluation runs");
+  CLI::App* command = app.add_subcommand("report",
+                                         "Summarise a saved run log and plot its stage timings and layer ages, or "
+                                         "tabulate a directory of evaluation runs");
   command->add_option("log", args->log_path, "run.h5 written by dynaguide run, or a directory of them (eval)")
       ->required();
   command->add_option("--cycles", args->cycles, "A directory's evaluation window, in cardiac cycles")
       ->capture_default_str();
-  command->add_option("--plot", args->plot_path, "Timing plot PNG (default: RUN_timings.png beside the log)");
+  command->add_option("--plot", args->plot_path,
+                      "Timing plot PNG (default: RUN_timings.png beside the log); RUN_layer_age.png goes beside it");
   command->callback([args] { RunReportCommand(*args); });
 }
 

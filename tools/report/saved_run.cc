@@ -1,5 +1,6 @@
 #include "tools/report/saved_run.h"
 
+#include <algorithm>
 #include <sstream>
 
 #include "io/h5_file.h"
@@ -46,6 +47,16 @@ SavedRun ReadSavedRun(const std::string& path) {
   run.policy = AttributeOr<std::string>(file, "policy", "");
   run.error = AttributeOr<std::string>(file, "error", "");
   run.threads = static_cast<int>(AttributeOr<std::int64_t>(file, "threads", 0));
+  if (file.Has("/composite/layer_age_frames") && file.HasAttribute("/composite", "overlay_names")) {
+    run.overlay_names = Split(file.ReadAttribute<std::string>("/composite", "overlay_names"));
+    run.composite_frame = file.Read<std::int64_t>("/composite/frame");
+    run.layer_age_frames = file.Read<std::int64_t>("/composite/layer_age_frames");
+    // As /timings: the rows both columns have.
+    const size_t composed = std::min(run.composite_frame.size(),
+                                     run.layer_age_frames.size() / std::max<size_t>(1, run.overlay_names.size()));
+    run.composite_frame.resize(composed);
+    run.layer_age_frames.resize(composed * run.overlay_names.size());
+  }
   return run;
 }
 
