@@ -74,6 +74,9 @@ TEST_CASE("eval runtime: the recommendation for real time on two cores", "[tools
   CHECK(RecommendForRealTime(points) == std::optional<size_t>(5));
   points[5].errors.internal_rms_mm = 0.202;
   CHECK(RecommendForRealTime(points) == std::optional<size_t>(1));
+  // The overlay as shown outweighs the state where the runs drew it.
+  points[5].errors.shown_internal_rms_mm = 0.2005;
+  CHECK(RecommendForRealTime(points) == std::optional<size_t>(5));
   points[5].ran = false;
   points[1].simulating_realtime_factor = 0.99;
   points[2].simulating_realtime_factor = 0.5;

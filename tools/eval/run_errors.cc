@@ -173,6 +173,10 @@ size_t WindowRows(const RunErrors& run, int frames) {
          run.frame.begin();
 }
 
+double StudyInternalRmsMm(const ErrorFigures& figures) {
+  return std::isnan(figures.shown_internal_rms_mm) ? figures.internal_rms_mm : figures.shown_internal_rms_mm;
+}
+
 ErrorFigures Figures(const std::vector<const RunErrors*>& runs, int frames) {
   ErrorFigures figures;
   Pool surface, internal, shown_surface, shown_internal;

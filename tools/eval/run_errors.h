@@ -1,6 +1,7 @@
 #pragma once
 
 #include <cstdint>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -57,11 +58,12 @@ struct ErrorFigures {
   // (age 0). Each layer is drawn from its own frame's state, so they are the
   // state's over those rows. NaN when no row of the window had the layer (a
   // run without overlays, a log without layer ages).
+  static constexpr double kUnknown = std::numeric_limits<double>::quiet_NaN();
   int shown_frames = 0;  // rows with both layers
-  double shown_surface_avg_mm = 0, shown_surface_max_mm = 0, shown_surface_rms_mm = 0;
-  double shown_internal_avg_mm = 0, shown_internal_max_mm = 0, shown_internal_rms_mm = 0;
+  double shown_surface_avg_mm = kUnknown, shown_surface_max_mm = kUnknown, shown_surface_rms_mm = kUnknown;
+  double shown_internal_avg_mm = kUnknown, shown_internal_max_mm = kUnknown, shown_internal_rms_mm = kUnknown;
   // shown_frames over the rows of the window (NaN when no run logged layer ages).
-  double layer_present_fraction = 0;
+  double layer_present_fraction = kUnknown;
   std::vector<double> fiducial_sim_avg_mm, fiducial_model_avg_mm;  // Table 2: per fiducial
   // The paper's statistic: one typical surface feature followed through the
   // window. Per run, the point with the median RMS error among the points
@@ -77,6 +79,11 @@ struct ErrorFigures {
   double phase_error_mean_ms = 0, phase_error_max_ms = 0;
   double registered_phase_error_mean_ms = 0, registered_phase_error_max_ms = 0;
 };
+
+// The internal RMS error the error-against-run-time study weighs points by:
+// the overlay's as shown, or the simulated state's when the runs drew no
+// overlays (the shown figure is then NaN). The user sees the overlay.
+double StudyInternalRmsMm(const ErrorFigures& figures);
 
 // The rows of run's window: those whose frame lies in [first, first + frames)
 // of its simulation (frames < 0: all). A realtime run that dropped frames has

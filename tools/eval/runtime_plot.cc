@@ -34,8 +34,8 @@ void WriteErrorRuntimePlot(const RuntimeResult& result, const std::string& png_p
   for (const PointResult* p : ran) {
     x_lo = std::min(x_lo, p->simulating_realtime_factor);
     x_hi = std::max(x_hi, p->simulating_realtime_factor);
-    y_lo = std::min(y_lo, p->errors.internal_rms_mm);
-    y_hi = std::max(y_hi, p->errors.internal_rms_mm);
+    y_lo = std::min(y_lo, StudyInternalRmsMm(p->errors));
+    y_hi = std::max(y_hi, StudyInternalRmsMm(p->errors));
   }
   const double log_lo = std::log10(x_lo) - 0.1, log_hi = std::log10(x_hi) + 0.15;
   const double margin = std::max(0.1 * (y_hi - y_lo), 0.05 * y_hi + 1e-3);
@@ -73,7 +73,9 @@ void WriteErrorRuntimePlot(const RuntimeResult& result, const std::string& png_p
   cv::rectangle(canvas, at(x_min, y_hi), at(x_max, y_lo), kInk, 1);
   Text(canvas, "real-time factor while simulating (video s per wall s, log scale)",
        {left + static_cast<int>(plot_w / 2) - 250, size.height - 20}, 0.55, kInk);
-  Text(canvas, "internal error, RMS (mm; the axis spans the points' range, not from 0): " + result.scene_name,
+  Text(canvas,
+       "internal error of the overlay as shown, RMS (mm; the axis spans the points' range, not from 0): " +
+           result.scene_name,
        {left - 70, 30}, 0.55, kInk);
 
   // Real time: a dashed vertical line, labelled on the side with room.
@@ -92,7 +94,7 @@ void WriteErrorRuntimePlot(const RuntimeResult& result, const std::string& png_p
     return a->simulating_realtime_factor < b->simulating_realtime_factor;
   });
   std::vector<cv::Point> line;
-  for (const PointResult* p : front) line.push_back(at(p->simulating_realtime_factor, p->errors.internal_rms_mm));
+  for (const PointResult* p : front) line.push_back(at(p->simulating_realtime_factor, StudyInternalRmsMm(p->errors)));
   cv::polylines(canvas, line, false, kFront, 2, cv::LINE_AA);
 
   // Markers, then names: the front's first, each beside its marker where it
@@ -100,7 +102,7 @@ void WriteErrorRuntimePlot(const RuntimeResult& result, const std::string& png_p
   std::stable_partition(ran.begin(), ran.end(), [](const PointResult* p) { return p->pareto; });
   std::vector<cv::Rect> taken;
   for (const PointResult* p : ran) {
-    const cv::Point c = at(p->simulating_realtime_factor, p->errors.internal_rms_mm);
+    const cv::Point c = at(p->simulating_realtime_factor, StudyInternalRmsMm(p->errors));
     cv::circle(canvas, c, 6, p->pareto ? kFront : kDominated, cv::FILLED, cv::LINE_AA);
     if (result.recommended && &result.points[*result.recommended] == p) {
       cv::circle(canvas, c, 12, kRecommended, 2, cv::LINE_AA);

@@ -75,11 +75,11 @@ std::string RecommendationText(const RuntimeResult& result) {
   const PointResult& p = result.points[*result.recommended];
   return Printed(
       "For real time on two cores, pick %s: %d tetrahedra, dt %.2f ms, %s, %d target features, "
-      "2 threads, the most accurate point that keeps up (internal RMS %.3f mm, surface RMS %.3f mm, "
+      "2 threads, the most accurate point that keeps up (internal RMS %.3f mm as shown, surface RMS %.3f mm, "
       "%.2fx real time while simulating).",
       p.plan.point.Name().c_str(), p.plan.tets, p.plan.point.dt_s * 1e3, sim::ToString(p.plan.point.precision).c_str(),
       p.plan.point.target_features,
-      p.errors.internal_rms_mm, p.errors.surface_rms_mm, p.simulating_realtime_factor);
+      StudyInternalRmsMm(p.errors), p.errors.surface_rms_mm, p.simulating_realtime_factor);
 }
 
 std::string WriteRuntimeReport(const RuntimeResult& result, const std::string& out_dir) {
@@ -121,8 +121,9 @@ std::string WriteRuntimeReport(const RuntimeResult& result, const std::string& o
                        "cardiac cycles from the simulation's start, as far as every run reaches), mm. ",
                        result.window_frames)) +
         "Real time: video seconds per wall second, over the whole run and over the simulated frames only (the "
-        "registration window's frames do not simulate); the Pareto front and the recommendation use internal RMS "
-        "against the simulating factor, errors within " + Printed("%g", kSameErrorMm) + " mm counting as equal.\n\n";
+        "registration window's frames do not simulate); the Pareto front and the recommendation use the internal RMS "
+        "of the overlay as shown (the simulated state's when the scene draws no overlays) against the simulating "
+        "factor, errors within " + Printed("%g", kSameErrorMm) + " mm counting as equal.\n\n";
 
   md +=
       "| point | tets | dt (ms) | features | threads | surface avg | max | RMS | internal avg | max | RMS | real time, "

@@ -221,12 +221,12 @@ std::optional<size_t> RecommendForRealTime(const std::vector<PointResult>& point
   };
   double best_error_mm = INFINITY;
   for (const PointResult& p : points) {
-    if (keeps_up(p)) best_error_mm = std::min(best_error_mm, p.errors.internal_rms_mm);
+    if (keeps_up(p)) best_error_mm = std::min(best_error_mm, StudyInternalRmsMm(p.errors));
   }
   std::optional<size_t> fastest;
   for (size_t k = 0; k < points.size(); ++k) {
     const PointResult& p = points[k];
-    if (!keeps_up(p) || p.errors.internal_rms_mm > best_error_mm + kSameErrorMm) continue;
+    if (!keeps_up(p) || StudyInternalRmsMm(p.errors) > best_error_mm + kSameErrorMm) continue;
     if (!fastest || p.simulating_realtime_factor > points[*fastest].simulating_realtime_factor) fastest = k;
   }
   return fastest;
@@ -374,7 +374,7 @@ RuntimeResult ReadRuntimeLogs(const std::string& dir, double cycles) {
   for (size_t k = 0; k < result.points.size(); ++k) {
     if (!result.points[k].ran) continue;
     result.points[k].errors = Figures({&runs[k]}, result.window_frames);
-    measured.push_back({result.points[k].simulating_realtime_factor, result.points[k].errors.internal_rms_mm});
+    measured.push_back({result.points[k].simulating_realtime_factor, StudyInternalRmsMm(result.points[k].errors)});
     measured_index.push_back(k);
   }
   const std::vector<bool> front = ParetoFront(measured, kSameErrorMm);

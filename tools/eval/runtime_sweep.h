@@ -81,7 +81,7 @@ struct PointResult {
   std::vector<pipeline::StageStatistics> stages;  // per stage over the simulated frames: median, p95, mean ms
   std::string machine;                            // the run log's: CPU, cores, threads used, SIMD, compiler
   double load_average = 0;  // the 1-minute load when the point started locally; 0 for a job run elsewhere
-  bool pareto = false;      // non-dominated in (internal RMS error, simulating real-time factor)
+  bool pareto = false;      // non-dominated in (StudyInternalRmsMm, simulating real-time factor)
 };
 
 struct RuntimeResult {
@@ -131,7 +131,7 @@ struct CostAccuracy {
 std::vector<bool> ParetoFront(const std::vector<CostAccuracy>& points, double error_tolerance_mm = 0);
 
 // The point a user should pick for real time on `threads` threads: the most
-// accurate (internal RMS) whose simulating real-time factor is at least 1,
+// accurate (StudyInternalRmsMm) whose simulating real-time factor is at least 1,
 // where errors within kSameErrorMm of the best count as equal and the
 // fastest of them wins. None when no point on that many threads keeps up.
 std::optional<size_t> RecommendForRealTime(const std::vector<PointResult>& points, int threads = 2);
