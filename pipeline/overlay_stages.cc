@@ -133,9 +133,10 @@ void OverlaysAdapter::BuildDrawings(const Eigen::Isometry3d& T_C_S) {
 }
 
 void OverlaysAdapter::FitToBudget(double draw_ms, const Eigen::Isometry3d& T_C_S) {
-  // A few frames' median, so that one slow frame (a page fault, the first
-  // touch of a buffer) does not coarsen the drawings for the whole run.
-  constexpr size_t kFrames = 5;
+  // Three frames' median, so that one slow frame (a page fault) does not
+  // coarsen the drawings for the whole run, and few enough that the frames
+  // drawn too slowly while it is found do not pile up into drops.
+  constexpr size_t kFrames = 3;
   recent_draw_ms_.push_back(draw_ms);
   if (recent_draw_ms_.size() < kFrames) return;
   const double median_ms = sim::Median(recent_draw_ms_);
@@ -166,7 +167,8 @@ void OverlaysAdapter::Process(FramePacket& packet) {
   packet.draw_end_steady_ns.assign(count, 0);
   if (options_.right_eye) packet.layers_right.resize(count);
   if (!packet.simulation || !packet.registration) return;  // nothing simulated yet: the frame as it is
-  if (drawings_.empty()) BuildDrawings(Eigen::Isometry3d(packet.registration->T_C_S));
+  const bool first = drawings_.empty();
+  if (first) BuildDrawings(Eigen::Isometry3d(packet.registration->T_C_S));
   const Eigen::Matrix3Xd& nodes_S = packet.simulation->nodes_S_m;
   // One overlay after the other, each on every core (its tiles): each draw's
   // time is then its own, as `bench overlay` measures it.
@@ -176,7 +178,8 @@ void OverlaysAdapter::Process(FramePacket& packet) {
     if (options_.right_eye) packet.layers_right[k] = drawings_[k][1](nodes_S, packet.index);
     packet.draw_end_steady_ns[k] = SteadyNowNs();
   }
-  if (options_.draw_budget_ms > 0 && !fitted_) {
+  // The first frame's draws touch every buffer for the first time: not a frame like the others.
+  if (options_.draw_budget_ms > 0 && !fitted_ && !first) {
     FitToBudget((packet.draw_end_steady_ns.back() - packet.draw_start_steady_ns.front()) * 1e-6,
                 Eigen::Isometry3d(packet.registration->T_C_S));
   }

@@ -73,7 +73,7 @@ class OverlaysAdapter final : public PacketStage {
     std::optional<Eigen::Isometry3d> T_C_S;
     OverlayQuality quality;
     // Realtime: the drawings' share of a frame period on all cores (ms). If
-    // the median of a few frames' drawings exceeds it, the CT volume is
+    // the median of three frames' drawings exceeds it, the CT volume is
     // drawn more coarsely (OverlayQuality::CoarsenVolume) until they fit or
     // it is as coarse as it goes; each step is logged. 0: the quality stays
     // (offline, where the video must not depend on the machine's pace).

@@ -362,7 +362,7 @@ TEST_CASE("overlays stage: realtime fits the volume's quality to the drawings' s
   CHECK(within == std::vector<int>{2});
   CHECK(kept.volume_resolution_divisor == 2);
   const auto [over, coarsest] = run(1e-6);
-  // 2 -> 4 -> 8 (spacing 2 -> 3 -> 4.5 mm), five frames apart, then no coarser.
+  // 2 -> 4 -> 8 (spacing 2 -> 3 -> 4.5 mm), three frames apart after the first, then no coarser.
   CHECK(over == std::vector<int>{2, 4, 8});
   CHECK(coarsest.volume_resolution_divisor == 8);
   CHECK(coarsest.volume_slice_spacing_m == Approx(4.5e-3));
