@@ -290,6 +290,20 @@ TEST_CASE("run: offline, the annotated video is identical on one and two threads
   CHECK(differing == 0);
   // The last frame is simulated and shows the overlays: it differs from the frame as captured.
   CHECK(cv::norm(last, VideoFrame(TinyPhantomDir() + "/video/left.avi", frames - 1), cv::NORM_L1) > 0);
+
+  // --show-age writes the layers' ages under the frame's label (rows 28-44)
+  // and changes nothing else: below the JPEG blocks the label touches (16 x 16
+  // colour blocks, so from row 48) the frames are the same to the bit.
+  pipeline::RunOptions labelled;
+  labelled.scene = TinyPhantomDir() + "/scene.yaml";
+  labelled.out_dir = TinyPhantomDir() + "/run_show_age";
+  labelled.threads = 2;
+  labelled.progress = false;
+  labelled.show_age = true;
+  const cv::Mat aged = VideoFrame(pipeline::RunScene(labelled).video_path, frames - 1);
+  const cv::Rect label(0, 16, last.cols, 32), below(0, 48, last.cols, last.rows - 48);
+  CHECK(cv::norm(aged(label), last(label), cv::NORM_L1) > 0);
+  CHECK(cv::norm(aged(below), last(below), cv::NORM_INF) == 0);
 }
 
 // The recording as image sequences whose eighth left image has another size:
