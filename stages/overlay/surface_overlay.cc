@@ -1,5 +1,9 @@
 #include "stages/overlay/surface_overlay.h"
 
+#include <cmath>
+
+#include <opencv2/imgproc.hpp>
+
 #include "sim/error.h"
 
 namespace dg::stages::overlay {
@@ -38,6 +42,51 @@ const std::vector<OverlaySurface>& CheckedSurfaces(const std::vector<OverlaySurf
                   "export the mesh with texture coordinates (OBJ vt, PLY s t)");
   }
   return surfaces;
+}
+
+// The texture and its halvings (Gaussian-filtered, cv::pyrDown) down to a
+// few texels: a level is the texture prefiltered for a surface drawn that
+// many times smaller (mip-mapping).
+std::vector<cv::Mat> TextureLevels(const cv::Mat& texture) {
+  std::vector<cv::Mat> levels{texture};
+  while (levels.back().cols >= 16 && levels.back().rows >= 16) {
+    cv::Mat half;
+    cv::pyrDown(levels.back(), half);
+    levels.push_back(half);
+  }
+  return levels;
+}
+
+// The level whose texels are about one per sample where the surface is
+// drawn: the texels its triangles span over the samples they cover (every
+// 4th triangle, in front of the camera), as a power of 4. A textured surface
+// drawn much smaller than its texture then samples a prefiltered level,
+// which is both what the eye should see (no aliasing) and cache-friendly:
+// sampling the full texture at a fraction of its density misses the cache
+// on nearly every sample.
+int TextureLevel(const render::TriangleMesh& drawn, const render::PinholeCamera& camera, cv::Size texture,
+                 int levels) {
+  constexpr int kEvery = 4;
+  double texel_area = 0, sample_area = 0;
+  for (Eigen::Index t = 0; t < drawn.triangles.cols(); t += kEvery) {
+    Eigen::Vector2d pixel[3], uv[3];
+    bool in_front = true;
+    for (int k = 0; k < 3; ++k) {
+      const Eigen::Vector3f p = drawn.positions_C.col(drawn.triangles(k, t));
+      in_front = in_front && p.z() > camera.near_m;
+      pixel[k] = {camera.fx * p.x() / p.z() + camera.cx, camera.fy * p.y() / p.z() + camera.cy};
+      uv[k] = {drawn.uvs(0, drawn.triangles(k, t)) * texture.width, drawn.uvs(1, drawn.triangles(k, t)) * texture.height};
+    }
+    if (!in_front) continue;
+    const auto area = [](const Eigen::Vector2d* c) {
+      const Eigen::Vector2d a = c[1] - c[0], b = c[2] - c[0];
+      return 0.5 * std::abs(a.x() * b.y() - a.y() * b.x());
+    };
+    sample_area += area(pixel);
+    texel_area += area(uv);
+  }
+  if (!(sample_area > 0 && texel_area > sample_area)) return 0;
+  return std::min(levels - 1, static_cast<int>(std::floor(0.5 * std::log2(texel_area / sample_area))));
 }
 
 const SurfaceOverlay::Options& CheckedOptions(const SurfaceOverlay::Options& options) {
@@ -89,6 +138,7 @@ SurfaceOverlay::SurfaceOverlay(const Options& options, std::shared_ptr<const sim
       drawn.uvs.row(1) = 1 - drawn.uvs.row(1).array();  // the rasterizer's v runs down the image
     }
     drawn_.push_back(std::move(drawn));
+    texture_levels_.push_back(s.texture.empty() ? std::vector<cv::Mat>{} : TextureLevels(s.texture));
   }
   layers_.Reserve(options_.reserved_layers, {view.pinhole().width, view.pinhole().height});
 }
@@ -107,7 +157,11 @@ OverlayLayer SurfaceOverlay::Process(const Eigen::Matrix3Xd& nodes_S, std::int64
     drawn.positions_C = vertices_view_.middleCols(first_vertex_[i], surface.mesh.num_vertices());
     if (options_.lit) AccumulateNormals(drawn.positions_C, drawn.triangles, &drawn.normals_C);
     render::Material material;
-    material.texture = surface.texture.empty() ? nullptr : &surface.texture;
+    if (!surface.texture.empty()) {
+      const std::vector<cv::Mat>& levels = texture_levels_[i];
+      material.texture = &levels[TextureLevel(drawn, rasterizer_.FullCamera(), surface.texture.size(),
+                                              static_cast<int>(levels.size()))];
+    }
     material.color = surface.color_bgr;
     if (options_.lit) {
       material.ambient = 0.25f;

@@ -34,7 +34,8 @@ struct OverlaySurface {
 //  - Embedded meshes (segmented anatomy): lit, Blinn-Phong under a headlight,
 //    each surface in its colour.
 //  - Surface texture (landmarks, annotations on the organ's surface): unlit,
-//    the texture's own colours, to be alpha-blended with the video.
+//    the texture's own colours, to be alpha-blended with the video; sampled
+//    from the mip level that matches the surface's size in the image.
 // Process() reuses the rasterizer's buffers: one call at a time per instance
 // (the pipeline runs each overlay serially, on its own rate).
 class SurfaceOverlay {
@@ -81,6 +82,8 @@ class SurfaceOverlay {
   std::vector<OverlaySurface> surfaces_;
   std::vector<Eigen::Index> first_vertex_;  // of each surface in the embedding
   std::vector<render::TriangleMesh> drawn_;  // per surface, reused every frame
+  // Per textured surface, its texture and halvings (mip levels); empty for an untextured one.
+  std::vector<std::vector<cv::Mat>> texture_levels_;
   LayerPool layers_;
   std::shared_ptr<const sim::Embedding> embedding_;
   LensView view_;

@@ -155,6 +155,41 @@ TEST_CASE("overlay: vertices land on the distorted projection", "[stages][unit]"
   REQUIRE(inside > 300);
 }
 
+// A texture far finer than the image samples it (a one-texel checkerboard of
+// 1024 x 1024 on a triangle some 40 pixels across) is drawn from its
+// prefiltered level: the mean grey the eye would average it to, without the
+// aliasing of sampling the full texture at a sixteenth of its density.
+TEST_CASE("overlay: a surface drawn far smaller than its texture samples a prefiltered level", "[stages][unit]") {
+  OverlaySurface surface;
+  surface.mesh.vertices_m.resize(3, 3);
+  surface.mesh.vertices_m << -0.02, 0.025, -0.005, -0.015, -0.01, 0.02, 0.1, 0.1, 0.1;
+  surface.mesh.triangles.resize(3, 1);
+  surface.mesh.triangles << 0, 1, 2;
+  surface.mesh.uvs.resize(2, 3);
+  surface.mesh.uvs << 0.0, 1.0, 0.3, 0.1, 0.0, 0.9;
+  surface.texture.create(1024, 1024, CV_8UC3);
+  for (int y = 0; y < 1024; ++y) {
+    for (int x = 0; x < 1024; ++x) surface.texture.at<cv::Vec3b>(y, x) = cv::Vec3b::all((x + y) % 2 ? 255 : 0);
+  }
+  surface.name = "checkerboard";
+  SurfaceOverlay::Options options;
+  options.opacity = 1;
+  options.lit = false;
+  options.supersample = 1;
+  SurfaceOverlay overlay(options, OneTet(), {surface},
+                         LensView(PinholeCalibration(64, 48, 100), Eigen::Isometry3d::Identity()));
+  const OverlayLayer layer = overlay.Process(OneTet().X_m, 0);
+  std::vector<float> inside;
+  for (int y = 0; y < 48; ++y) {
+    for (int x = 0; x < 64; ++x) {
+      const cv::Vec4f p = layer.bgra.at<cv::Vec4f>(y, x);
+      if (p[3] == 1) inside.push_back(p[0]);
+    }
+  }
+  REQUIRE(inside.size() > 300);
+  for (float blue : inside) CHECK(blue == Approx(0.5).margin(0.02));
+}
+
 // The ray length per depth, interpolated from a coarse grid of lens
 // inversions, against each pixel's own inversion through the same strongly
 // distorting lens.
