@@ -47,9 +47,9 @@ struct CompositeFrame {
 // The caller hands Compose() one layer per entry of the options (an empty
 // layer where an overlay has none yet); a layer from a frame after the one
 // composed is left out, and each layer's age is reported. Where the layers
-// come from is the caller's business: the pipeline keeps the newest layer of
-// each overlay in a mailbox of its own (pipeline/latest_layers.h), so the
-// compositor knows nothing of threads. Compose() is const and may run on
+// come from is the caller's business: the pipeline draws them from the
+// frame's own state and carries them in the frame's packet
+// (pipeline/overlay_stages.h), so the compositor knows nothing of threads. Compose() is const and may run on
 // several frames at once (its scratch rows are per thread).
 //
 // Compose() is one pass over the frame in bands of rows (in parallel): per

@@ -1,5 +1,5 @@
 // The compositor against hand-computed blends, and the ages of the layers it
-// is given (the hand-over between threads is pipeline/latest_layers.h's).
+// is given (where they come from is pipeline/overlay_stages.h's).
 #include "stages/overlay/compositor.h"
 
 #include <algorithm>
