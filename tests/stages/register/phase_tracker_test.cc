@@ -118,7 +118,7 @@ PhaseErrors TrackPhase(const Truth& truth, std::uint64_t noise_seed) {
   return errors;
 }
 
-TEST_CASE("phase tracker: an irregular beat is followed closer than by a constant shift", "[phase]") {
+TEST_CASE("phase tracker: an irregular beat is followed closer than by a constant shift", "[phase][integration]") {
   const std::uint64_t seed = GENERATE(3, 17);
   const Truth truth = MakePhantom(0.10, 0.06, seed);
   const PhaseErrors errors = TrackPhase(truth, seed);
@@ -137,7 +137,7 @@ TEST_CASE("phase tracker: an irregular beat is followed closer than by a constan
   CHECK(errors.live_rms_ms / errors.sigma_ms_median == Approx(1.0).margin(0.5));
 }
 
-TEST_CASE("phase tracker: a regular beat agrees with the constant shift", "[phase]") {
+TEST_CASE("phase tracker: a regular beat agrees with the constant shift", "[phase][integration]") {
   const Truth truth = MakePhantom(0.0, 0.0, 5);
   const PhaseErrors errors = TrackPhase(truth, 5);
   UNSCOPED_INFO("live mean " << errors.live_mean_ms << " ms, max " << errors.live_max_ms << " ms; against the shift "
