@@ -27,6 +27,11 @@ FiducialMotion ReadFiducialMotion(const std::string& scan_h5) {
   FiducialMotion motion;
   io::H5Shape shape;
   motion.phases = file.Read<double>("/phases/phase");
+  if (!file.Has("/phases/fiducials_S_m")) {
+    throw Error("the scan has no fiducials (/phases/fiducials_S_m): none was found in its CT", scan_h5,
+                "mark the fiducials at the CT's first phase (3D Slicer markups) and run `dynaguide preop` again with "
+                "--fiducials FILE --resume");
+  }
   const std::vector<double> xyz = file.Read<double>("/phases/fiducials_S_m", &shape);
   if (shape.size() != 3 || shape[2] != 3 || shape[0] != motion.phases.size()) {
     throw Error("/phases/fiducials_S_m must have the shape [phases, fiducials, 3] with one row per /phases/phase entry",
