@@ -605,6 +605,43 @@ PhaseDeformation::PhaseDeformation() = default;
 PhaseDeformation::PhaseDeformation(std::shared_ptr<const Spline> spline, PhaseRegistrationReport report)
     : spline_(std::move(spline)), report_(std::move(report)) {}
 
+std::vector<double> PhaseDeformation::FixedParameters() const {
+  if (!spline_) return {};
+  const BSpline::FixedParametersType& fixed = spline_->transform->GetFixedParameters();
+  return {fixed.begin(), fixed.end()};
+}
+
+std::vector<double> PhaseDeformation::Parameters() const {
+  if (!spline_) return {};
+  const BSpline::ParametersType& parameters = spline_->transform->GetParameters();
+  return {parameters.begin(), parameters.end()};
+}
+
+PhaseDeformation PhaseDeformation::FromParameters(const std::vector<double>& fixed_parameters,
+                                                  const std::vector<double>& parameters, const io::CtImage& grid,
+                                                  PhaseRegistrationReport report) {
+  auto spline = std::make_shared<Spline>();
+  spline->grid = grid;
+  spline->grid.values.clear();
+  spline->transform = BSpline::New();
+  try {
+    BSpline::FixedParametersType fixed(fixed_parameters.size());
+    std::copy(fixed_parameters.begin(), fixed_parameters.end(), fixed.begin());
+    spline->transform->SetFixedParameters(fixed);
+    if (spline->transform->GetNumberOfParameters() != parameters.size()) {
+      throw Error("a B-spline of " + std::to_string(parameters.size()) + " parameters where its grid has " +
+                      std::to_string(spline->transform->GetNumberOfParameters()),
+                  grid.source, "register the phase again");
+    }
+    BSpline::ParametersType values(parameters.size());
+    std::copy(parameters.begin(), parameters.end(), values.begin());
+    spline->transform->SetParametersByValue(values);
+  } catch (const itk::ExceptionObject& e) {
+    throw Error(std::string("not a B-spline: ") + e.GetDescription(), grid.source, "register the phase again");
+  }
+  return PhaseDeformation(std::move(spline), std::move(report));
+}
+
 Eigen::Matrix3Xd PhaseDeformation::Displacements(const Eigen::Matrix3Xd& points_S_m) const {
   Eigen::Matrix3Xd u = Eigen::Matrix3Xd::Zero(3, points_S_m.cols());
   if (!spline_) return u;

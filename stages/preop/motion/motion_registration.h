@@ -63,6 +63,17 @@ class PhaseDeformation {
 
   const PhaseRegistrationReport& report() const { return report_; }
 
+  // The fitted B-spline as numbers (ITK's fixed parameters: its grid; and its
+  // parameters: the control points' displacements, mm), to keep a
+  // registration between runs. Both empty for the identity.
+  std::vector<double> FixedParameters() const;
+  std::vector<double> Parameters() const;
+  // The deformation those numbers describe over `grid` (phase 0's geometry).
+  // @throws dg::Error when the numbers do not make a B-spline of this order.
+  static PhaseDeformation FromParameters(const std::vector<double>& fixed_parameters,
+                                         const std::vector<double>& parameters, const io::CtImage& grid,
+                                         PhaseRegistrationReport report);
+
   struct Spline;  // the fitted B-spline (ITK's), defined in the .cc
   PhaseDeformation(std::shared_ptr<const Spline> spline, PhaseRegistrationReport report);
 
