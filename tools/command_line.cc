@@ -25,6 +25,11 @@ int RunCommandLine(CLI::App& app, int argc, char** argv) {
   } catch (const std::exception& e) {
     std::fprintf(stderr, "dynaguide: unexpected error: %s\n", e.what());
     return 2;
+  } catch (...) {
+    // Some libraries throw what is not a std::exception (Gmsh's API throws
+    // strings); the process still ends with a message, not an abort.
+    std::fprintf(stderr, "dynaguide: unexpected error of a type that is not an exception class (from a library)\n");
+    return 2;
   }
   return 0;
 }
