@@ -76,8 +76,12 @@ void WriteSceneLike(const std::string& like_scene, const std::string& out_dir, c
   const std::string path = out_dir + "/scene.yaml";
   std::ofstream file(path);
   file << "# A dynaguide scene: preoperative part by `dynaguide preop` from a 4D CT, the rest from\n# "
-       << fs::absolute(like_scene).string() << ". Lengths in metres, times in seconds.\n"
-       << YAML::Dump(root) << "\n";
+       << fs::absolute(like_scene).string() << ". Lengths in metres, times in seconds.\n";
+  if (parts.fiducials == 0) {
+    file << "# The scan has NO fiducials: `dynaguide run` cannot register it to the video. Mark them at the CT's\n"
+            "# first phase (3D Slicer markups) and run `dynaguide preop ... --fiducials FILE --resume`.\n";
+  }
+  file << YAML::Dump(root) << "\n";
   if (!file) throw Error("cannot write the scene", path, "check the folder's permissions and free space");
 }
 

@@ -10,6 +10,7 @@ struct PreopSceneParts {
   double period_s = 0;     // 0: the like scene's
   int internal_meshes = 0;  // assets/internal_K.obj
   bool texture = false;     // assets/surface.obj carries uvs for assets/annotation.*
+  int fiducials = 0;        // in scan.h5; 0: the scene needs them before `dynaguide run`
 };
 
 // Writes out_dir/scene.yaml: the like scene's video, calibration, truth,

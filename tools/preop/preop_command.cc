@@ -5,6 +5,7 @@
 #include <tbb/global_control.h>
 #include <tbb/info.h>
 
+#include "sim/error.h"
 #include "tools/commands.h"
 #include "tools/preop/preop_job.h"
 
@@ -13,7 +14,7 @@ namespace {
 
 struct PreopArguments {
   preop::PreopOptions options;
-  std::vector<double> organ_hu, internal_hu, mount_hu;
+  std::vector<double> organ_hu, internal_hu, mount_hu, bead_size_mm, roi_mm;
   int threads = 0;
   bool quiet = false;
 };
@@ -27,6 +28,18 @@ void RunPreopCommand(PreopArguments& args) {
   options.segmentation.organ_hu = Range(args.organ_hu, options.segmentation.organ_hu);
   options.segmentation.internal_hu = Range(args.internal_hu, options.segmentation.internal_hu);
   options.segmentation.mount_hu = Range(args.mount_hu, options.segmentation.mount_hu);
+  if (!args.bead_size_mm.empty()) {
+    options.beads.min_diameter_mm = args.bead_size_mm[0];
+    options.beads.max_diameter_mm = args.bead_size_mm[1];
+  }
+  if (!args.roi_mm.empty()) {
+    options.beads.roi_min_m = 1e-3 * Eigen::Vector3d(args.roi_mm[0], args.roi_mm[1], args.roi_mm[2]);
+    options.beads.roi_max_m = 1e-3 * Eigen::Vector3d(args.roi_mm[3], args.roi_mm[4], args.roi_mm[5]);
+    if (!options.beads.HasRoi()) {
+      throw Error("--roi must be XMIN YMIN ZMIN XMAX YMAX ZMAX with each min at most its max", "--roi",
+                  "give the box's two corners in mm, in the CT's LPS frame (as 3D Slicer shows it with LPS)");
+    }
+  }
   options.progress = !args.quiet;
   const int threads = args.threads > 0 ? args.threads : tbb::info::default_concurrency();
   tbb::global_control parallelism(tbb::global_control::max_allowed_parallelism, threads);
@@ -67,6 +80,21 @@ void AddPreopCommand(CLI::App& app) {
       ->expected(2);
   command->add_option("--mount-hu", args->mount_hu, "Automatic: the mount's HU range MIN MAX (default 375 1750)")
       ->expected(2);
+  command->add_option("--roi", args->roi_mm,
+                      "A box in the CT's frame (LPS, mm): XMIN YMIN ZMIN XMAX YMAX ZMAX; beads and the organ are "
+                      "looked for only inside it")
+      ->expected(6);
+  command->add_option("--fiducials", o.fiducials_file,
+                      "The fiducials at phase 0 from a file instead of beads found in the CT: 3D Slicer markups "
+                      "(.mrk.json, .fcsv; LPS or RAS as stated in the file) or x,y,z in mm, LPS (.csv)");
+  command->add_option("--bead-min-hu", o.beads.threshold_hu, "Fiducial beads: voxels above this CT number")
+      ->capture_default_str();
+  command->add_option("--bead-size-mm", args->bead_size_mm,
+                      "Fiducial beads: MIN MAX diameter, mm, of a sphere of a bead's volume (default 0 6)")
+      ->expected(2);
+  command->add_flag("--resume", o.resume,
+                    "Take each phase's registration from --out's cache/ when it was made from the same CT and "
+                    "registration options (after a failure late in the run, or to mesh again)");
   command->add_option("--tets", o.mesh.target_tets, "Target tetrahedron count")->capture_default_str();
   command->add_option("--triangles", o.surface.target_triangles, "Decimated surface's triangle count")
       ->capture_default_str();

@@ -1,5 +1,7 @@
 #include "tools/preop/preop_job.h"
 
+#include <sys/resource.h>
+
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -18,10 +20,13 @@
 #include "io/surface_mesh.h"
 #include "sim/error.h"
 #include "sim/log.h"
+#include "sim/stability.h"
 #include "stages/register/bead_detection.h"
 #include "stages/register/fiducial_motion.h"
+#include "tools/preop/fiducial_file.h"
 #include "tools/preop/like_scene.h"
 #include "tools/preop/preop_report.h"
+#include "tools/preop/registration_cache.h"
 #include "tools/preop/surface_uvs.h"
 
 namespace dg::tools::preop {
@@ -30,15 +35,33 @@ namespace {
 
 // Every phase registered to the first, options.threads at once (each
 // registration is single-threaded and independent of the others), with a
-// progress line per phase as it finishes. Result 0 is the identity.
+// progress line per phase as it finishes. Each is kept in the cache as it
+// finishes; with options.resume, those the cache holds are taken from it.
+// Result 0 is the identity.
 std::vector<stages::preop::PhaseDeformation> RegisterPhasesAtOnce(const std::vector<io::CtImage>& phases,
-                                                                  const PreopOptions& options) {
+                                                                  const PreopOptions& options, int* from_cache) {
   stages::preop::CheckPhases(phases);
+  const RegistrationCache cache(options.out_dir + "/cache", phases, options.motion);
   std::vector<stages::preop::PhaseDeformation> deformations(phases.size());
+  std::vector<int> to_register;
+  for (int k = 1; k < static_cast<int>(phases.size()); ++k) {
+    std::optional<stages::preop::PhaseDeformation> kept = options.resume ? cache.Load(k) : std::nullopt;
+    if (kept) {
+      deformations[k] = *kept;
+    } else {
+      to_register.push_back(k);
+    }
+  }
+  *from_cache = static_cast<int>(phases.size()) - 1 - static_cast<int>(to_register.size());
+  if (options.progress && *from_cache > 0) {
+    std::fprintf(stderr, "preop:   %d phases taken from %s/cache (--resume)\n", *from_cache, options.out_dir.c_str());
+  }
   tbb::task_arena arena(options.threads > 0 ? options.threads : tbb::this_task_arena::max_concurrency());
   arena.execute([&] {
-    tbb::parallel_for(1, static_cast<int>(phases.size()), [&](int k) {
+    tbb::parallel_for(0, static_cast<int>(to_register.size()), [&](int i) {
+      const int k = to_register[i];
       deformations[k] = stages::preop::RegisterPhase(phases, k, options.motion);
+      cache.Save(k, deformations[k]);
       if (!options.progress) return;
       const stages::preop::PhaseRegistrationReport& phase = deformations[k].report();
       // One call per line: stdio locks stderr for the call, so lines from phases finishing together never interleave.
@@ -48,6 +71,47 @@ std::vector<stages::preop::PhaseDeformation> RegisterPhasesAtOnce(const std::vec
     });
   });
   return deformations;
+}
+
+// The mesh's stability limit at the like scene's material and time step (the
+// defaults without one). With a like scene, a mesh whose limit is below what
+// `run` needs is refused here, before the registrations and before a scene is
+// written that run would refuse.
+MeshStability CheckStability(const sim::TetMesh& mesh, const std::string& like_scene) {
+  sim::Material material;
+  double dt_s = io::Scene::Simulation{}.dt_s;
+  if (!like_scene.empty()) {
+    const io::Scene like = io::ReadScene(like_scene);
+    material = like.material;
+    if (like.simulation) dt_s = like.simulation->dt_s;
+  }
+  std::vector<int> fixed_dofs;
+  if (const auto base = mesh.node_sets.find("base"); base != mesh.node_sets.end()) {
+    for (int a : base->second) {
+      for (int i = 0; i < 3; ++i) fixed_dofs.push_back(3 * a + i);
+    }
+  }
+  const sim::StabilityReport report = sim::EstimateStability(mesh, material, fixed_dofs);
+  MeshStability stability{.dt_critical_s = report.dt_critical_s,
+                          .dt_s = dt_s,
+                          .safety = sim::DefaultStabilitySafety(material.poissons_ratio),
+                          .limit = report.Describe()};
+  if (const std::string excess = report.TimeStepExcess(dt_s, stability.safety); !excess.empty()) {
+    if (like_scene.empty()) {
+      Logger("tools").warn("the mesh needs a smaller time step than the default: {}", excess);
+    } else {
+      throw Error("the mesh is not stable at the scene's time step: " + excess, mesh.source,
+                  "mesh with fewer tetrahedra (--tets) or a smoother surface (--triangles), so that no element is "
+                  "much smaller than the rest; `dynaguide run` would refuse this scene");
+    }
+  }
+  return stability;
+}
+
+double PeakRssGb() {
+  rusage usage{};
+  getrusage(RUSAGE_SELF, &usage);
+  return usage.ru_maxrss / (1024.0 * 1024.0);  // ru_maxrss is in KiB on Linux
 }
 
 using Clock = std::chrono::steady_clock;
@@ -139,7 +203,7 @@ std::string PreopOptions::Validate() const {
   if (period_s < 0) return "the period must be positive";
   if (threads < 0) return "threads must be 0 (TBB's default) or more, got " + std::to_string(threads);
   for (const std::string& problem :
-       {segmentation.Validate(), surface.Validate(), mesh.Validate(), motion.Validate()}) {
+       {segmentation.Validate(), surface.Validate(), mesh.Validate(), motion.Validate(), beads.Validate()}) {
     if (!problem.empty()) return problem;
   }
   return {};
@@ -160,17 +224,24 @@ std::string PreopSummary::Describe() const {
   std::snprintf(line, sizeof line, "motion: %zu phases registered, smallest Jacobian %.3f\n",
                 registration.empty() ? 0 : registration.size() - 1, worst_jacobian);
   text << line;
-  if (fiducials.error_m.size()) {
-    std::snprintf(line, sizeof line, "fiducials: %d, deformed against found %.3f mm on average, %.3f mm at most\n",
-                  static_cast<int>(fiducials.error_m.cols()), 1e3 * fiducials.mean_m(),
-                  1e3 * fiducials.error_m.maxCoeff());
+  std::snprintf(line, sizeof line, "stability: critical time step %.4g ms, the scene's %.4g ms within %.2f of it\n",
+                1e3 * stability.dt_critical_s, 1e3 * stability.dt_s, stability.safety);
+  text << line;
+  if (phases_from_cache > 0) text << "  " << phases_from_cache << " phases' registrations taken from the cache\n";
+  if (fiducial_source == FiducialSource::kNone) {
+    text << "fiducials: none found; give them with --fiducials FILE before `dynaguide run`\n";
+  } else if (fiducial_source == FiducialSource::kFile) {
+    text << "fiducials: " << fiducial_count << " from the file, moved by the registration\n";
+  } else {
+    std::snprintf(line, sizeof line, "fiducials: %d beads, deformed against found %.3f mm on average, %.3f mm at most\n",
+                  fiducial_count, 1e3 * fiducials.mean_m(), 1e3 * fiducials.error_m.maxCoeff());
     text << line;
   }
   for (const StepTime& step : steps) {
     std::snprintf(line, sizeof line, "  %-28s %7.2f s\n", step.step.c_str(), step.wall_s);
     text << line;
   }
-  std::snprintf(line, sizeof line, "preop: %.1f s\n", wall_s);
+  std::snprintf(line, sizeof line, "preop: %.1f s, peak memory %.2f GB\n", wall_s, peak_rss_gb);
   text << line;
   return text.str();
 }
@@ -232,22 +303,46 @@ PreopSummary RunPreop(const PreopOptions& options) {
       Logger("tools").warn("no mesh node touches the mount: the simulation has no fixed nodes and needs its "
                            "surface constraints to hold the organ (check the mount's HU range or label)");
     }
+    summary.stability = steps.Run("stability limit", [&] { return CheckStability(mesh, options.like_scene); });
 
-    const std::vector<stages::preop::PhaseDeformation> deformations =
-        steps.Run("B-spline motion", [&] { return RegisterPhasesAtOnce(phases, options); });
+    // The fiducials before the registrations: a wrong bead count is found in
+    // seconds, not after every phase is registered.
+    stages::FiducialMotion beads;
+    steps.Run("fiducials", [&] {
+      if (!options.fiducials_file.empty()) {
+        beads.positions_S_m.assign(phases.size(), ReadFiducialFile(options.fiducials_file));
+        summary.fiducial_source = FiducialSource::kFile;
+      } else {
+        const std::vector<std::vector<Eigen::Vector3d>> found = stages::DetectBeadsInPhases(ct_files, options.beads);
+        beads = stages::MatchBeadsAcrossPhases(found, ct_files, options.beads);
+        summary.fiducial_source = found.front().empty() ? FiducialSource::kNone : FiducialSource::kBeads;
+      }
+      if (!options.like_scene.empty() && summary.fiducial_source != FiducialSource::kNone) {
+        OrderLikeScene(options.like_scene, &beads);
+      }
+      summary.fiducial_count = beads.num_fiducials();
+    });
+    if (summary.fiducial_source == FiducialSource::kNone) {
+      Logger("tools").warn("no fiducial bead {} in the CT: the scan gets mesh, motion and assets but no fiducials; "
+                           "the registration to the video needs them: run preop again with --fiducials FILE "
+                           "(3D Slicer markups, phase 0) and --resume",
+                           options.beads.Describe());
+    }
+
+    const std::vector<stages::preop::PhaseDeformation> deformations = steps.Run(
+        "B-spline motion", [&] { return RegisterPhasesAtOnce(phases, options, &summary.phases_from_cache); });
     for (const auto& deformation : deformations) summary.registration.push_back(deformation.report());
 
-    const stages::FiducialMotion beads = steps.Run("fiducials", [&] {
-      stages::FiducialMotion found = stages::DetectBeadMotion(ct_files, {});
-      if (!options.like_scene.empty()) OrderLikeScene(options.like_scene, &found);
-      return found;
-    });
     const int P = summary.phases, F = beads.num_fiducials(), N = mesh.num_nodes();
     std::vector<Eigen::Matrix3Xd> deformed(P);
-    summary.fiducials.error_m.resize(P, F);
     for (int k = 0; k < P; ++k) {
       deformed[k] = beads.positions_S_m[0] + deformations[k].Displacements(beads.positions_S_m[0]);
-      summary.fiducials.error_m.row(k) = (deformed[k] - beads.positions_S_m[k]).colwise().norm();
+    }
+    if (summary.fiducial_source == FiducialSource::kFile) {
+      beads.positions_S_m = deformed;  // marked once: they move as the registration says
+    } else if (summary.fiducial_source == FiducialSource::kBeads) {
+      summary.fiducials.error_m.resize(P, F);
+      for (int k = 0; k < P; ++k) summary.fiducials.error_m.row(k) = (deformed[k] - beads.positions_S_m[k]).colwise().norm();
     }
 
     steps.Run("writing scan.h5", [&] {
@@ -255,16 +350,23 @@ PreopSummary RunPreop(const PreopOptions& options) {
       std::vector<double> phase_values, found, pushed;
       for (int k = 0; k < P; ++k) {
         phase_values.push_back(double(k) / P);
+        if (F == 0) continue;
         found.insert(found.end(), beads.positions_S_m[k].data(), beads.positions_S_m[k].data() + 3 * F);
         pushed.insert(pushed.end(), deformed[k].data(), deformed[k].data() + 3 * F);
       }
       io::H5Writer scan(out + "/scan.h5");
       scan.Write("/phases/phase", phase_values.data(), {size_t(P)});
       scan.Write("/phases/node_displacement_m", node_displacement.data(), {size_t(P), size_t(N), 3});
-      scan.Write("/phases/fiducials_S_m", found.data(), {size_t(P), size_t(F), 3});
-      scan.Write("/phases/fiducials_deformed_S_m", pushed.data(), {size_t(P), size_t(F), 3});
+      if (F > 0) {
+        scan.Write("/phases/fiducials_S_m", found.data(), {size_t(P), size_t(F), 3});
+        scan.Write("/phases/fiducials_deformed_S_m", pushed.data(), {size_t(P), size_t(F), 3});
+        scan.WriteAttribute("/phases/fiducials_S_m", "source",
+                            summary.fiducial_source == FiducialSource::kFile ? "file, moved by the registration"
+                                                                             : "beads found in each phase");
+      }
       scan.Write("/nodes_S_m", mesh.X_m.data(), {size_t(N), 3});
       scan.WriteAttribute("/", "phases", P);
+      scan.WriteAttribute("/", "fiducials", F);
       if (options.period_s > 0) scan.WriteAttribute("/", "period_s", options.period_s);
     });
 
@@ -289,14 +391,21 @@ PreopSummary RunPreop(const PreopOptions& options) {
         WriteSceneLike(options.like_scene, out, {.phases = P,
                                                   .period_s = options.period_s,
                                                   .internal_meshes = static_cast<int>(segmentation.internal.size()),
-                                                  .texture = !options.annotation.empty()});
+                                                  .texture = !options.annotation.empty(),
+                                                  .fiducials = F});
       });
     }
     summary.wall_s = SecondsSince(start);
+    summary.peak_rss_gb = PeakRssGb();
     report.Complete(summary);
   } catch (const std::exception& e) {
     summary.wall_s = SecondsSince(start);
+    summary.peak_rss_gb = PeakRssGb();
     report.Fail(summary, e.what());
+    throw;
+  } catch (...) {
+    summary.wall_s = SecondsSince(start);
+    report.Fail(summary, "an error of a type that is not an exception class (from a library)");
     throw;
   }
   return summary;

@@ -9,6 +9,7 @@
 #include "stages/preop/segment/segmentation.h"
 #include "stages/preop/segment/surface_extraction.h"
 #include "stages/preop/segment/tetrahedralisation.h"
+#include "stages/register/bead_detection.h"
 
 namespace dg::tools::preop {
 
@@ -22,7 +23,13 @@ struct PreopOptions {
   std::string label_map;      // a segmentation on phase 0's grid; empty: automatic
   std::string annotation;     // an image laid on the organ's surface for the texture overlay; empty: none
   std::string like_scene;     // a scene whose video, calibration, truth and run settings scene.yaml takes
-  double period_s = 0;        // the CT's cardiac period; 0: the like scene's
+  double period_s = 0;        // the CT's cardiac or breathing period; 0: the like scene's
+  // The fiducials at phase 0 from a 3D Slicer markups file (.mrk.json, .fcsv)
+  // or a CSV file (ReadFiducialFile), instead of beads found in the CT; their
+  // motion is then the registered motion.
+  std::string fiducials_file;
+  stages::BeadDetectionOptions beads;
+  bool resume = false;        // take each phase's registration from --out/cache/ when made from the same inputs
   stages::preop::SegmentationOptions segmentation;
   stages::preop::SurfaceOptions surface;
   stages::preop::TetrahedralisationOptions mesh;
@@ -45,6 +52,18 @@ struct FiducialErrors {
   double mean_m() const { return error_m.size() ? error_m.mean() : 0; }
 };
 
+// Where the scan's fiducials came from.
+enum class FiducialSource { kNone, kBeads, kFile };
+
+// The mesh's explicit stability limit at the material and time step it will
+// be simulated with (the like scene's, else the defaults).
+struct MeshStability {
+  double dt_critical_s = 0;  // assembled, sim::EstimateStability
+  double dt_s = 0;           // the scene's time step
+  double safety = 0;         // the fraction of dt_critical_s a step may take (sim::DefaultStabilitySafety)
+  std::string limit;         // where the limit is set (sim::StabilityReport::Describe)
+};
+
 struct PreopSummary {
   int phases = 0;
   Eigen::Vector3i ct_size = Eigen::Vector3i::Zero();
@@ -53,16 +72,24 @@ struct PreopSummary {
   stages::preop::SurfaceReport surface;
   stages::preop::TetrahedralisationReport mesh;
   std::vector<stages::preop::PhaseRegistrationReport> registration;
-  FiducialErrors fiducials;
+  MeshStability stability;
+  FiducialSource fiducial_source = FiducialSource::kNone;
+  int fiducial_count = 0;
+  FiducialErrors fiducials;  // beads only: a file's fiducials move with the registration by definition
+  int phases_from_cache = 0;
   std::vector<StepTime> steps;
   double wall_s = 0;
+  double peak_rss_gb = 0;
   std::string Describe() const;  // the command's closing lines
 };
 
 // Runs every step and writes into options.out_dir (created): mesh.msh,
-// scan.h5, ct/phase_NN.mhd, assets/, preop.json, and scene.yaml with a like
-// scene. preop.json is written first marked incomplete and rewritten complete
-// at the end, so a run stopped by an error leaves that mark and the error.
+// scan.h5, ct/phase_NN.mhd, assets/, cache/ (each phase's registration),
+// preop.json, and scene.yaml with a like scene. The cheap steps and every
+// check come first (reading, segmentation, mesh, its quality and stability,
+// the fiducials), the registrations last. preop.json is written first marked
+// incomplete and rewritten complete at the end, so a run stopped by an error
+// leaves that mark and the error.
 // @throws dg::Error for invalid options and from every step.
 PreopSummary RunPreop(const PreopOptions& options);
 

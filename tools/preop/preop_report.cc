@@ -16,6 +16,9 @@ PreopReportFile::PreopReportFile(std::string path, const PreopOptions& options) 
                        {"series_uids", options.series_uids},
                        {"label_map", options.label_map},
                        {"like", options.like_scene},
+                       {"fiducials_file", options.fiducials_file},
+                       {"bead_detection", options.beads.Describe()},
+                       {"resume", options.resume},
                        {"target_tets", options.mesh.target_tets},
                        {"grid_spacing_mm", Significant(options.motion.grid_spacing_mm, 6)},
                        {"levels", options.motion.levels}};
@@ -32,6 +35,7 @@ void PreopReportFile::Write(const PreopSummary& summary, bool complete, const st
   if (!error.empty()) json["error"] = error;
   json["inputs"] = Json::parse(inputs_json_);
   json["wall_s"] = figure(summary.wall_s);
+  json["peak_rss_gb"] = figure(summary.peak_rss_gb);
   Json steps = Json::object();
   for (const StepTime& step : summary.steps) steps[step.step] = figure(step.wall_s);
   json["steps"] = steps;
@@ -53,6 +57,10 @@ void PreopReportFile::Write(const PreopSummary& summary, bool complete, const st
                   {"volume_mm3", figure(1e9 * mesh.volume_m3)},
                   {"min_radius_ratio", figure(mesh.min_radius_ratio)},
                   {"mean_radius_ratio", figure(mesh.mean_radius_ratio)}};
+  json["stability"] = {{"dt_critical_ms", figure(1e3 * summary.stability.dt_critical_s)},
+                       {"dt_ms", figure(1e3 * summary.stability.dt_s)},
+                       {"safety", figure(summary.stability.safety)},
+                       {"limit", summary.stability.limit}};
   Json registration = Json::array();
   for (const auto& phase : summary.registration) {
     registration.push_back({{"phase", phase.phase},
@@ -65,10 +73,14 @@ void PreopReportFile::Write(const PreopSummary& summary, bool complete, const st
                             {"wall_s", figure(phase.wall_s)}});
   }
   json["registration"] = registration;
+  json["registrations_from_cache"] = summary.phases_from_cache;
   const Eigen::MatrixXd& errors = summary.fiducials.error_m;
   Json per_fiducial = Json::array();
   for (Eigen::Index f = 0; f < errors.cols(); ++f) per_fiducial.push_back(figure(1e3 * errors.col(f).mean()));
-  json["fiducials"] = {{"deformed_vs_found_mean_mm", figure(1e3 * summary.fiducials.mean_m())},
+  static constexpr const char* kSources[] = {"none", "beads", "file"};
+  json["fiducials"] = {{"source", kSources[static_cast<int>(summary.fiducial_source)]},
+                       {"count", summary.fiducial_count},
+                       {"deformed_vs_found_mean_mm", figure(1e3 * summary.fiducials.mean_m())},
                        {"per_fiducial_mean_mm", per_fiducial},
                        {"max_mm", figure(errors.size() ? 1e3 * errors.maxCoeff() : 0.0)}};
   std::ofstream file(path_);
