@@ -15,7 +15,7 @@ packages=(
   libopencv-dev opencv-doc libceres-dev
   libhdf5-dev hdf5-tools libyaml-cpp-dev libcli11-dev nlohmann-json3-dev catch2
   libgmsh-dev
-  libinsighttoolkit5-dev libgdcm-tools libvtk9-dev python3-pydicom python3-numpy
+  libinsighttoolkit5-dev libgdcm-tools libvtk9-dev python3-pydicom python3-nibabel python3-numpy
 )
 
 missing=()

@@ -18,7 +18,8 @@ namespace dg::io {
 // centre at origin_m + direction * (spacing_m .* (i, j, k)) and its value at
 // values[i + size.x * (j + size.y * k)] (x fastest). CT values are in HU, the
 // file's rescale slope and intercept applied; a label map's values are its
-// labels.
+// labels. The readers (io/ct/ct_reader.h) return the direction the identity,
+// the file's grid reoriented or resampled as reoriented_from says.
 struct CtImage {
   Eigen::Vector3i size = Eigen::Vector3i::Zero();
   Eigen::Vector3d spacing_m = Eigen::Vector3d::Constant(1e-3);
@@ -27,7 +28,16 @@ struct CtImage {
   std::vector<float> values;
   std::string source;          // the file or folder it was read from, for messages
   std::string series_uid;      // DICOM's SeriesInstanceUID; empty for other formats
+  std::string modality;        // DICOM's Modality (0008,0060); empty for other formats
   double cycle_fraction = std::numeric_limits<double>::quiet_NaN();  // the phase in [0, 1) when the file says it
+  // What the reader did to put the file's voxels on S's axes: "" (they were),
+  // the file's axis code for a lossless flip or exchange ("RAS": voxel axes
+  // along -x, -y, +z of LPS), or "oblique 12.3 deg" when resampled.
+  std::string reoriented_from;
+  double oblique_angle_deg = 0;  // the largest angle between a file's voxel axis and its S axis, when resampled
+  // False when the values are not known to be HU: read as stored on request
+  // (CtIntensity::kNotHu), or a label map. Automatic segmentation needs HU.
+  bool values_are_hu = true;
 
   std::size_t num_voxels() const { return static_cast<std::size_t>(size.x()) * size.y() * size.z(); }
   std::size_t Index(int i, int j, int k) const {

@@ -18,6 +18,7 @@
 #include <itkMetaDataObject.h>
 #include <itkMetaImageIO.h>
 
+#include "io/ct/axis_aligned.h"
 #include "io/ct/dicom_series.h"
 #include "io/ct/itk_factories.h"
 #include "io/ct/phase_order.h"
@@ -99,6 +100,7 @@ CtImage ReadSeries(const DicomSeries& series, bool require_ct) {
   }
   CtImage ct = FromItk(image, series.folder);
   ct.series_uid = series.uid;
+  ct.modality = series.modality;
   return ct;
 }
 
@@ -167,6 +169,7 @@ CtImage ReadImageFile(const std::string& path, bool require_ct) {
     const DicomSeries tags = ReadDicomFileTags(path);
     if (require_ct) CheckModality(tags.modality, path);
     ct.series_uid = tags.uid;
+    ct.modality = tags.modality;
   }
   return ct;
 }
@@ -263,11 +266,95 @@ void CheckSameGrid(const CtImage& first, const CtImage& phase, int index) {
               phase.source, "give the phases of one 4D CT, reconstructed on one grid");
 }
 
+void ThrowIfInvalid(const CtReadOptions& options) {
+  if (const std::string wrong = options.Validate(); !wrong.empty()) {
+    throw Error("invalid CT reading options: " + wrong, "the CT reading options",
+                "give each phase's series UID once, and a finite, non-zero intensity slope");
+  }
+}
+
+// A CT as read, its intensities taken as the options say, on S's axes.
+CtImage AsCt(CtImage ct, const CtReadOptions& options) {
+  if (options.intensity == CtIntensity::kScale) {
+    for (float& v : ct.values) {
+      v = static_cast<float>(options.intensity_slope * v + options.intensity_intercept);
+    }
+  }
+  float outside = -1024;
+  if (options.intensity == CtIntensity::kNotHu) {
+    ct.values_are_hu = false;
+    // Nothing is known of these values: beyond the scan, the darkest there is.
+    if (!ct.values.empty()) outside = *std::min_element(ct.values.begin(), ct.values.end());
+  } else {
+    CheckHounsfield(ct);
+  }
+  return OnAxisAlignedGrid(std::move(ct), Interpolation::kLinear, outside);
+}
+
+std::string Hu(double value) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.6g", value);
+  return text;
+}
+
 }  // namespace
 
-CtImage ReadCtImage(const std::string& path) { return Read(path, /*require_ct=*/true); }
+void CheckHounsfield(const CtImage& ct) {
+  if (ct.values.empty()) return;
+  // Counts of whole HU from -200 up; the median of the body from them, without a copy of the image.
+  constexpr double kAirBelow = -200, kMinimumAirFraction = 0.001, kTissueLow = -150, kTissueHigh = 500;
+  constexpr int kBins = 33000;  // whole HU from -200 past int16's range; above counts in the last
+  std::vector<size_t> counts(kBins, 0);
+  size_t below = 0, above = 0;
+  float low = ct.values.front(), high = ct.values.front();
+  for (float v : ct.values) {
+    if (std::isnan(v)) continue;
+    low = std::min(low, v);
+    high = std::max(high, v);
+    if (v < kAirBelow) {
+      ++below;
+    } else {
+      ++above;
+      ++counts[static_cast<size_t>(std::min<double>(kBins - 1, v - kAirBelow))];
+    }
+  }
+  double median = NAN;
+  for (size_t bin = 0, seen = 0; above > 0 && bin < counts.size(); ++bin) {
+    seen += counts[bin];
+    if (2 * seen >= above) {
+      median = kAirBelow + bin;  // to the whole HU below
+      break;
+    }
+  }
+  const double air_fraction = static_cast<double>(below) / ct.values.size();
+  const bool no_air = air_fraction < kMinimumAirFraction;
+  const bool no_tissue = above > 0 && (median < kTissueLow || median > kTissueHigh);
+  if (!no_air && !no_tissue) return;
 
-CtImage ReadLabelMap(const std::string& path) { return Read(path, /*require_ct=*/false); }
+  char figures[256];
+  std::snprintf(figures, sizeof figures,
+                "values %s..%s, %.3g%% of voxels below -200 HU (a CT has air, lung or fat: at least 0.1%%), "
+                "median above -200 HU %s (a CT's soft tissue: -150..500 HU)",
+                Hu(low).c_str(), Hu(high).c_str(), 100 * air_fraction, std::isnan(median) ? "none" : Hu(median).c_str());
+  std::string what = std::string("the values do not look like a CT in Hounsfield units: ") + figures;
+  if (low >= 0 && high <= 255) what += "; 0..255 is what an 8-bit image holds";
+  if (!ct.modality.empty()) what += "; DICOM modality " + ct.modality;
+  throw Error(what, ct.source,
+              "give a CT in Hounsfield units; or, if its values are HU after a linear rescale, give it with "
+              "--intensity-scale SLOPE,INTERCEPT (HU = SLOPE * value + INTERCEPT); or take it as it is with --not-hu "
+              "(then give a label map: automatic segmentation needs HU)");
+}
+
+CtImage ReadCtImage(const std::string& path, const CtReadOptions& options) {
+  ThrowIfInvalid(options);
+  return AsCt(Read(path, /*require_ct=*/true), options);
+}
+
+CtImage ReadLabelMap(const std::string& path) {
+  CtImage labels = Read(path, /*require_ct=*/false);
+  labels.values_are_hu = false;
+  return OnAxisAlignedGrid(std::move(labels), Interpolation::kNearest, 0);
+}
 
 std::string CtReadOptions::Validate() const {
   std::set<std::string> seen;
@@ -275,13 +362,16 @@ std::string CtReadOptions::Validate() const {
     if (uid.empty()) return "a series UID is empty";
     if (!seen.insert(uid).second) return "series UID " + uid + " is given twice";
   }
+  if (intensity == CtIntensity::kScale && (!std::isfinite(intensity_slope) || intensity_slope == 0 ||
+                                           !std::isfinite(intensity_intercept))) {
+    return "the intensity scale (slope " + Hu(intensity_slope) + ", intercept " + Hu(intensity_intercept) +
+           ") must be finite with a non-zero slope";
+  }
   return {};
 }
 
 std::vector<CtImage> ReadCtPhases(const std::vector<std::string>& inputs, const CtReadOptions& options) {
-  if (const std::string wrong = options.Validate(); !wrong.empty()) {
-    throw Error("invalid CT reading options: " + wrong, "series UIDs", "give each phase's series UID once");
-  }
+  ThrowIfInvalid(options);
   if (inputs.empty()) {
     throw Error("no CT given", "the CT inputs",
                 "give one folder holding every phase, one folder per phase, or one file per phase");
@@ -327,6 +417,7 @@ std::vector<CtImage> ReadCtPhases(const std::vector<std::string>& inputs, const 
       if (!fs::is_directory(input)) {
         PhaseTags tags;
         tags.where = input;
+        tags.name_percentage = NamePercentage(input);
         if (IsDicomFile(input)) tags = ReadDicomFileTags(input).tags;
         sources.push_back({input, nullptr, tags});
         continue;
@@ -350,8 +441,9 @@ std::vector<CtImage> ReadCtPhases(const std::vector<std::string>& inputs, const 
   const int count = static_cast<int>(order.order.size());
   for (int p = 0; p < count; ++p) {
     const PhaseSource& source = sources[order.order[p]];
-    CtImage phase = source.series ? ReadSeries(*source.series, /*require_ct=*/true)
-                                  : ReadImageFile(source.path, /*require_ct=*/true);
+    CtImage phase = AsCt(source.series ? ReadSeries(*source.series, /*require_ct=*/true)
+                                       : ReadImageFile(source.path, /*require_ct=*/true),
+                         options);
     phase.cycle_fraction = order.cycle_fraction[p];
     if (!phases.empty()) CheckSameGrid(phases.front(), phase, p);
     if (options.progress) {

@@ -49,6 +49,10 @@ DicomSeries TagsOf(const itk::MetaDataDictionary& dictionary, const std::string&
   tags.temporal_positions = std::isnan(positions) ? 0 : static_cast<int>(std::lround(positions));
   tags.trigger_time_ms = NumberTag(dictionary, "0018|1060");
   tags.heart_rate_bpm = NumberTag(dictionary, "0018|1088");
+  tags.respiratory_percentage = NumberTag(dictionary, "0020|9245");
+  tags.respiratory_delay_ms = NumberTag(dictionary, "0020|9255");
+  tags.respiratory_interval_ms = NumberTag(dictionary, "0020|9254");
+  tags.name_percentage = NamePercentage(where);
   return series;
 }
 
@@ -86,6 +90,7 @@ std::vector<DicomSeries> ListDicomSeries(const std::string& folder) {
       series.uid = uid;
       series.files = files;
       series.tags.where = folder;
+      series.tags.name_percentage = NamePercentage(folder);
       series.tags.series_uid = uid;
       list.push_back(std::move(series));
     }

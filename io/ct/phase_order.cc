@@ -22,7 +22,10 @@ std::string Number(double value) {
 double KeyValue(const PhaseTags& phase, PhaseKey key) {
   switch (key) {
     case PhaseKey::kNominalPercentage: return phase.nominal_percentage;
+    case PhaseKey::kRespiratoryPercentage: return phase.respiratory_percentage;
     case PhaseKey::kDescriptionPercentage: return phase.description_percentage;
+    case PhaseKey::kNamePercentage: return phase.name_percentage;
+    case PhaseKey::kRespiratoryDelay: return phase.respiratory_delay_ms;
     case PhaseKey::kTemporalPosition: return phase.temporal_position > 0 ? phase.temporal_position : PhaseTags::kNone;
     case PhaseKey::kTriggerTime: return phase.trigger_time_ms;
     case PhaseKey::kNone: break;
@@ -33,9 +36,12 @@ double KeyValue(const PhaseTags& phase, PhaseKey key) {
 std::string ValueText(double value, PhaseKey key) {
   switch (key) {
     case PhaseKey::kNominalPercentage:
-    case PhaseKey::kDescriptionPercentage: return Number(value) + "%";
+    case PhaseKey::kRespiratoryPercentage:
+    case PhaseKey::kDescriptionPercentage:
+    case PhaseKey::kNamePercentage: return Number(value) + "%";
     case PhaseKey::kTemporalPosition: return "temporal position " + Number(value);
     case PhaseKey::kTriggerTime: return "trigger time " + Number(value) + " ms";
+    case PhaseKey::kRespiratoryDelay: return "respiratory trigger delay " + Number(value) + " ms";
     case PhaseKey::kNone: break;
   }
   return "?";
@@ -45,7 +51,12 @@ double CycleFraction(const PhaseTags& phase, PhaseKey key) {
   const double value = KeyValue(phase, key);
   switch (key) {
     case PhaseKey::kNominalPercentage:
-    case PhaseKey::kDescriptionPercentage: return std::fmod(value / 100, 1.0);
+    case PhaseKey::kRespiratoryPercentage:
+    case PhaseKey::kDescriptionPercentage:
+    case PhaseKey::kNamePercentage: return std::fmod(value / 100, 1.0);
+    case PhaseKey::kRespiratoryDelay:
+      return phase.respiratory_interval_ms > 0 ? std::fmod(value / phase.respiratory_interval_ms, 1.0)
+                                               : PhaseTags::kNone;
     case PhaseKey::kTemporalPosition:
       return phase.temporal_positions > 0 ? (value - 1) / phase.temporal_positions : PhaseTags::kNone;
     case PhaseKey::kTriggerTime:
@@ -106,7 +117,8 @@ void CheckWhole(const std::vector<PhaseTags>& phases, PhaseKey key, const std::v
     }
     return;
   }
-  const bool percentage = key == PhaseKey::kNominalPercentage || key == PhaseKey::kDescriptionPercentage;
+  const bool percentage = key == PhaseKey::kNominalPercentage || key == PhaseKey::kRespiratoryPercentage ||
+                          key == PhaseKey::kDescriptionPercentage || key == PhaseKey::kNamePercentage;
   for (double value : MissingSteps(sorted, percentage ? 100.0 : 0.0)) missing.push_back(ValueText(value, key));
   if (!missing.empty()) {
     std::string list;
@@ -124,8 +136,12 @@ std::string PhaseTags::Describe() const {
   if (!description.empty()) text += " '" + description + "'";
   std::vector<std::string> tags;
   if (!std::isnan(nominal_percentage)) tags.push_back("nominal " + Number(nominal_percentage) + "%");
+  if (!std::isnan(respiratory_percentage)) tags.push_back("respiratory " + Number(respiratory_percentage) + "%");
   if (temporal_position > 0) tags.push_back("temporal position " + std::to_string(temporal_position));
   if (!std::isnan(trigger_time_ms)) tags.push_back("trigger time " + Number(trigger_time_ms) + " ms");
+  if (!std::isnan(respiratory_delay_ms)) {
+    tags.push_back("respiratory trigger delay " + Number(respiratory_delay_ms) + " ms");
+  }
   std::string list;
   for (const std::string& tag : tags) list += (list.empty() ? "" : ", ") + tag;
   return text + " (" + (list.empty() ? "no phase tag" : list) + ")";
@@ -138,9 +154,18 @@ double DescriptionPercentage(const std::string& description) {
   return std::stod(match[1]);
 }
 
+double NamePercentage(const std::string& path) {
+  std::string name = path;
+  while (!name.empty() && name.back() == '/') name.pop_back();
+  return DescriptionPercentage(name.substr(name.find_last_of('/') + 1));
+}
+
 const char* PhaseKeyName(PhaseKey key) {
   switch (key) {
     case PhaseKey::kNominalPercentage: return "NominalPercentageOfCardiacPhase (0020,9241)";
+    case PhaseKey::kRespiratoryPercentage: return "NominalPercentageOfRespiratoryPhase (0020,9245)";
+    case PhaseKey::kRespiratoryDelay: return "NominalRespiratoryTriggerDelayTime (0020,9255)";
+    case PhaseKey::kNamePercentage: return "the percentage in the file or folder name";
     case PhaseKey::kDescriptionPercentage: return "the percentage in SeriesDescription (0008,103E)";
     case PhaseKey::kTemporalPosition: return "TemporalPositionIdentifier (0020,0100)";
     case PhaseKey::kTriggerTime: return "TriggerTime (0018,1060)";
@@ -151,8 +176,9 @@ const char* PhaseKeyName(PhaseKey key) {
 
 PhaseKey CommonPhaseKey(const std::vector<PhaseTags>& phases) {
   if (phases.empty()) return PhaseKey::kNone;
-  for (PhaseKey key : {PhaseKey::kNominalPercentage, PhaseKey::kDescriptionPercentage, PhaseKey::kTemporalPosition,
-                       PhaseKey::kTriggerTime}) {
+  for (PhaseKey key : {PhaseKey::kNominalPercentage, PhaseKey::kRespiratoryPercentage,
+                       PhaseKey::kDescriptionPercentage, PhaseKey::kTemporalPosition, PhaseKey::kTriggerTime,
+                       PhaseKey::kRespiratoryDelay, PhaseKey::kNamePercentage}) {
     if (std::all_of(phases.begin(), phases.end(),
                     [key](const PhaseTags& phase) { return !std::isnan(KeyValue(phase, key)); })) {
       return key;
@@ -171,7 +197,7 @@ PhaseOrder OrderPhases(const std::vector<PhaseTags>& phases, bool given_order, b
     if (!given_order && phases.size() > 1) {
       throw Error("the folder holds " + std::to_string(phases.size()) +
                       " series and they cannot be ordered as the phases of one cycle, since not all carry a "
-                      "cardiac-phase tag: " + DescribeAll(phases),
+                      "cardiac- or respiratory-phase tag: " + DescribeAll(phases),
                   where,
                   "select the phases by series UID in cycle order, or put each phase's series in a folder of its "
                   "own and give the folders in cycle order");

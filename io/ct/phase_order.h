@@ -6,7 +6,7 @@
 
 namespace dg::io {
 
-// The cardiac-phase tags of one phase's series, as its files carry them
+// The cardiac- and respiratory-phase tags of one phase's series, as its files carry them
 // (NaN or 0 when absent). Plain data, so that the ordering rule below is
 // tested without files.
 struct PhaseTags {
@@ -19,22 +19,45 @@ struct PhaseTags {
   int temporal_positions = 0;          // NumberOfTemporalPositions (0020,0105)
   double trigger_time_ms = kNone;      // TriggerTime (0018,1060), after the R wave
   double heart_rate_bpm = kNone;       // HeartRate (0018,1088)
+  double respiratory_percentage = kNone;  // NominalPercentageOfRespiratoryPhase (0020,9245)
+  double respiratory_delay_ms = kNone;    // NominalRespiratoryTriggerDelayTime (0020,9255), after the trigger
+  double respiratory_interval_ms = kNone;  // RespiratoryIntervalTime (0020,9254): one breath
+  double name_percentage = kNone;      // "50%" in the file's or folder's own name (where)
 
   std::string Describe() const;  // "UID 'description' (40%, temporal position 5)"
 };
 
-// The percentage a series description names ("phase 40%", "40.0 %"), or NaN.
+// The percentage a series description names ("phase 40%", "40.0 %", "T=50%",
+// "Gated 50%"), or NaN.
 double DescriptionPercentage(const std::string& description);
+
+// The percentage in the last component of a path ("ct_50%.nii.gz",
+// "phase 40%/"), or NaN.
+double NamePercentage(const std::string& path);
 
 // Which tag orders the phases: the first of these that every phase carries.
 //   1. NominalPercentageOfCardiacPhase: the cardiac phase itself;
-//   2. a percentage in the series description (what most scanners write
-//      when they leave out the tag above);
-//   3. TemporalPositionIdentifier: an index 1..N of the cycle's phases;
-//   4. TriggerTime: milliseconds after the R wave.
-// The first two and the third (with NumberOfTemporalPositions), and the
-// fourth (with HeartRate) also give each phase's fraction of the cycle.
-enum class PhaseKey { kNone, kNominalPercentage, kDescriptionPercentage, kTemporalPosition, kTriggerTime };
+//   2. NominalPercentageOfRespiratoryPhase: the breathing phase itself;
+//   3. a percentage in the series description (what most scanners write
+//      when they leave out the tags above, cardiac or respiratory);
+//   4. TemporalPositionIdentifier: an index 1..N of the cycle's phases;
+//   5. TriggerTime: milliseconds after the R wave;
+//   6. NominalRespiratoryTriggerDelayTime: milliseconds after the
+//      respiratory trigger;
+//   7. a percentage in the file's or folder's name (a file per phase).
+// The percentages, the index (with NumberOfTemporalPositions) and the
+// delays (with HeartRate, or RespiratoryIntervalTime) also give each
+// phase's fraction of the cycle.
+enum class PhaseKey {
+  kNone,
+  kNominalPercentage,
+  kRespiratoryPercentage,
+  kDescriptionPercentage,
+  kTemporalPosition,
+  kTriggerTime,
+  kRespiratoryDelay,
+  kNamePercentage,
+};
 const char* PhaseKeyName(PhaseKey key);
 PhaseKey CommonPhaseKey(const std::vector<PhaseTags>& phases);
 

@@ -3,6 +3,7 @@
 // bad input refused with its own error naming what, where and the fix.
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <functional>
 #include <fstream>
@@ -147,6 +148,39 @@ void PatchModalityToMr(const std::string& file) {
   std::ofstream(file, std::ios::binary) << bytes;
 }
 
+// Sets (KEYWORD=VALUE) or removes (KEYWORD=) tags in every file of a folder with pydicom.
+void SetTagsWithPydicom(const std::string& folder, const std::string& changes) {
+  const std::string command =
+      "/usr/bin/python3 " DG_SOURCE_DIR "/tests/io/ct/set_dicom_tags.py '" + folder + "' " + changes + " 2>&1";
+  INFO(command);
+  REQUIRE(std::system(command.c_str()) == 0);
+}
+
+TEST_CASE("ct phases: a respiratory 4D CT is ordered by the respiratory tags pydicom writes", "[integration]") {
+  const testing::TemporaryFolder temporary("dg_ct_phases_respiratory");
+  // Phase p written with temporal position p; pydicom gives it the breathing phase 75, 50, 25, 0%
+  // (NominalPercentageOfRespiratoryPhase, which comes first), so the cycle runs 4, 3, 2, 1.
+  std::vector<std::string> folders;
+  for (int p = 1; p <= 4; ++p) {
+    folders.push_back(temporary.File("phase_" + std::to_string(p)));
+    WriteDicomSeries(testing::SmallCt(p), folders.back(), testing::PhaseInfo(temporary.path(), p, 4));
+    SetTagsWithPydicom(folders.back(), "NominalPercentageOfRespiratoryPhase=" + std::to_string(100 - 25 * p));
+  }
+  std::vector<CtImage> phases = ReadCtPhases({temporary.path()}, {});
+  RequirePhaseOffsets(phases, {4, 3, 2, 1});
+  REQUIRE_THAT(phases[1].cycle_fraction, WithinAbs(0.25, 1e-6));
+  // Without it and the temporal position: the delay after the respiratory trigger, over the breath's
+  // interval (4 s), gives the order and the fractions.
+  for (int p = 1; p <= 4; ++p) {
+    SetTagsWithPydicom(folders[p - 1], "NominalPercentageOfRespiratoryPhase= TemporalPositionIdentifier= "
+                                       "NominalRespiratoryTriggerDelayTime=" + std::to_string(1000 * (4 - p)) +
+                                           " RespiratoryIntervalTime=4000");
+  }
+  phases = ReadCtPhases({temporary.path()}, {});
+  RequirePhaseOffsets(phases, {4, 3, 2, 1});
+  REQUIRE_THAT(phases[3].cycle_fraction, WithinAbs(0.75, 1e-6));
+}
+
 TEST_CASE("ct phases: a modality other than CT is refused where a CT is expected, read as a label map", "[unit]") {
   const testing::TemporaryFolder temporary("dg_ct_phases_modality");
   const std::vector<std::string> folders = WritePhases(temporary.path(), 2);
@@ -163,10 +197,11 @@ TEST_CASE("ct phases: phases on different grids are an error naming both phases 
   const CtImage first = testing::SmallCt();
   CtImage finer = first;
   finer.spacing_m.z() = 1.25e-3;
-  CtImage turned = testing::PatternCt(first.size, first.spacing_m, first.origin_m, testing::ObliqueDirection());
+  CtImage shifted = first;
+  shifted.origin_m.x() += 0.1e-3;
   CtImage bigger = testing::PatternCt({5, 4, 4}, first.spacing_m, first.origin_m, first.direction);
   int n = 0;
-  for (const auto& [other, what] : {std::pair{finer, "spacing"}, {turned, "orientation"}, {bigger, "size"}}) {
+  for (const auto& [other, what] : {std::pair{finer, "spacing"}, {shifted, "origin"}, {bigger, "size"}}) {
     const std::string a = temporary.path() + "/a" + std::to_string(n),
                       b = temporary.path() + "/b" + std::to_string(n++);
     WriteDicomSeries(first, a, testing::PhaseInfo(a, 1, 2));

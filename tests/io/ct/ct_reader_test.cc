@@ -108,7 +108,8 @@ TEST_CASE("ct reader: NIfTI, NRRD and MetaImage, compressed or not, of several p
   const testing::TemporaryFolder temporary("dg_ct_formats");
   const Eigen::Vector3i n(7, 5, 4);
   const Eigen::Vector3d spacing(0.7, 0.8, 1.25), origin(-12.5, 30.25, -7.0);
-  const Eigen::Matrix3d R = testing::ObliqueDirection();
+  // Other orientations: ct_orientation_test.cc.
+  const Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
   auto hu = [](int i, int j, int k) { return -1000 + i + 10 * j + 100 * k; };
   auto label = [](int i, int j, int k) { return (i + 3 * j + 5 * k) % 7; };
   auto fraction = [](int i, int j, int k) { return 0.25 * i - 0.5 * j + 1.75 * k; };
@@ -130,7 +131,8 @@ TEST_CASE("ct reader: NIfTI, NRRD and MetaImage, compressed or not, of several p
     INFO(c.name);
     const std::string path = temporary.path() + "/" + c.name;
     c.write(path);
-    const CtImage ct = ReadCtImage(path);
+    // Labels and fractions are not HU: read as stored.
+    const CtImage ct = ReadCtImage(path, {.intensity = c.name.rfind("ct.nii", 0) == 0 ? CtIntensity::kHu : CtIntensity::kNotHu});
     // NIfTI stores its frame as float quaternion and offsets: a few 1e-7 of rounding.
     REQUIRE(ct.size == n);
     REQUIRE((ct.spacing_m - 1e-3 * spacing).cwiseAbs().maxCoeff() < 1e-9);
@@ -156,15 +158,20 @@ TEST_CASE("ct reader: a NRRD header written by hand in LPS space gives its space
     std::ofstream raw(temporary.File("ct.raw"), std::ios::binary);
     for (int16_t v = 0; v < 12; ++v) raw.write(reinterpret_cast<const char*>(&v), sizeof v);
   }
-  const CtImage ct = ReadCtImage(temporary.File("ct.nhdr"));
-  Eigen::Matrix3d R;
-  R << 0, -1, 0,  //
-      1, 0, 0,    //
-      0, 0, 1;
-  RequireFrame(ct, {3, 2, 2}, {0.5, 2, 3}, {10, 20, 30}, R);
-  for (int v = 0; v < 12; ++v) REQUIRE(ct.values[v] == v);
-  // Voxel (1, 1, 1) at origin + 0.5 (0,1,0) + 2 (-1,0,0) + 3 (0,0,1) mm.
-  REQUIRE((ct.PointOf(1, 1, 1) - 1e-3 * Eigen::Vector3d(8, 20.5, 33)).norm() < 1e-12);
+  // The file's voxel axes are +y, -x and +z of S ("PRS"): the reader moves them onto S's axes, so its
+  // voxel (i, j, k) is the file's (j, 1 - i, k), and the origin the file's voxel (0, 1, 0), at
+  // (10, 20, 30) + 2 (-1, 0, 0) mm.
+  const CtImage ct = ReadCtImage(temporary.File("ct.nhdr"), {.intensity = CtIntensity::kNotHu});
+  REQUIRE(ct.reoriented_from == "PRS");
+  RequireFrame(ct, {2, 3, 2}, {2, 0.5, 3}, {8, 20, 30}, Eigen::Matrix3d::Identity());
+  for (int k = 0; k < 2; ++k) {
+    for (int j = 0; j < 3; ++j) {
+      for (int i = 0; i < 2; ++i) REQUIRE(ct.at(i, j, k) == j + 3 * (1 - i) + 6 * k);
+    }
+  }
+  // The file's voxel (1, 1, 1), at origin + 0.5 (0,1,0) + 2 (-1,0,0) + 3 (0,0,1) mm, is the reader's (0, 1, 1).
+  REQUIRE((ct.PointOf(0, 1, 1) - 1e-3 * Eigen::Vector3d(8, 20.5, 33)).norm() < 1e-12);
+  REQUIRE(ct.at(0, 1, 1) == 1 + 3 * 1 + 6 * 1);
 }
 
 TEST_CASE("ct reader: the project's own MetaImage reads through ITK to the voxels and frame its reader gives", "[unit]") {
@@ -176,7 +183,7 @@ TEST_CASE("ct reader: the project's own MetaImage reads through ITK to the voxel
   for (size_t v = 0; v < volume.num_voxels(); ++v) volume.values.push_back(static_cast<int16_t>(-1000 + 37 * v));
   WriteMetaImage(temporary.File("ct.mhd"), volume);
   const VolumeI16 own = ReadMetaImage<int16_t>(temporary.File("ct.mhd"));
-  const CtImage ct = ReadCtImage(temporary.File("ct.mhd"));
+  const CtImage ct = ReadCtImage(temporary.File("ct.mhd"), {.intensity = CtIntensity::kNotHu});
   RequireFrame(ct, own.size, 1e3 * own.spacing_m, 1e3 * own.origin_m, Eigen::Matrix3d::Identity());
   for (size_t v = 0; v < own.num_voxels(); ++v) REQUIRE(ct.values[v] == own.values[v]);
 }

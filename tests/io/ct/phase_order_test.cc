@@ -83,5 +83,49 @@ TEST_CASE("phase order: two series at one phase, untagged series and an order gi
                       Contains("out of cycle order") && Contains("(50%) comes before") && Contains("(25%)"));
 }
 
+TEST_CASE("phase order: respiratory percentages, trigger delays and percentages in names order the phases",
+          "[unit]") {
+  std::vector<PhaseTags> phases(4);
+  for (int i = 0; i < 4; ++i) {
+    phases[i].where = "/data/4dct/ct_" + std::to_string(25 * ((i + 2) % 4)) + "%.nii.gz";
+    phases[i].name_percentage = NamePercentage(phases[i].where);
+    phases[i].respiratory_delay_ms = 1000.0 * ((i + 1) % 4);  // 1000, 2000, 3000, 0
+    phases[i].respiratory_interval_ms = 4000;
+  }
+  // The delays (with the breath's interval) before the names.
+  PhaseOrder order = OrderPhases(phases, false, true, "f");
+  REQUIRE(order.key == PhaseKey::kRespiratoryDelay);
+  REQUIRE(order.order == std::vector<int>{3, 0, 1, 2});
+  REQUIRE_THAT(order.cycle_fraction[1], WithinAbs(0.25, 1e-12));
+  // The names alone: 50, 75, 0, 25%.
+  for (PhaseTags& p : phases) p.respiratory_delay_ms = PhaseTags::kNone;
+  order = OrderPhases(phases, false, true, "f");
+  REQUIRE(order.key == PhaseKey::kNamePercentage);
+  REQUIRE(order.order == std::vector<int>{2, 3, 0, 1});
+  REQUIRE_THAT(order.cycle_fraction[3], WithinAbs(0.75, 1e-12));
+  // NominalPercentageOfRespiratoryPhase before the description's percentage and the temporal position.
+  for (int i = 0; i < 4; ++i) {
+    phases[i].respiratory_percentage = 25.0 * (3 - i);
+    phases[i].description_percentage = 10.0 * i;
+    phases[i].temporal_position = i + 1;
+  }
+  order = OrderPhases(phases, false, true, "f");
+  REQUIRE(order.key == PhaseKey::kRespiratoryPercentage);
+  REQUIRE(order.order == std::vector<int>{3, 2, 1, 0});
+  REQUIRE_THAT(phases[0].Describe(), Contains("respiratory 75%"));
+  // A missing breathing phase is named as a cardiac one is.
+  phases.erase(phases.begin() + 1);
+  REQUIRE_THROWS_WITH(OrderPhases(phases, false, true, "f"), Contains("but for 50%"));
+}
+
+TEST_CASE("phase order: percentages as 4D CT exports write them in descriptions and names", "[unit]") {
+  REQUIRE_THAT(DescriptionPercentage("Gated 50%"), WithinAbs(50, 0));
+  REQUIRE_THAT(DescriptionPercentage("4DCT T=30%"), WithinAbs(30, 0));
+  REQUIRE_THAT(DescriptionPercentage("Resp 12.5 %"), WithinAbs(12.5, 0));
+  REQUIRE_THAT(NamePercentage("/scans/phase 40%/"), WithinAbs(40, 0));
+  REQUIRE_THAT(NamePercentage("/scans/50%/ct_T=70%.nii.gz"), WithinAbs(70, 0));
+  REQUIRE(std::isnan(NamePercentage("/scans/50%/ct_70.nii.gz")));  // the folder's name is not the file's
+}
+
 }  // namespace
 }  // namespace dg::io
