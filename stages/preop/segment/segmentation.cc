@@ -2,7 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
-#include <map>
+#include <limits>
 #include <set>
 #include <string>
 #include <vector>
@@ -22,6 +22,7 @@
 #include <itkImage.h>
 #include <itkMorphologicalWatershedImageFilter.h>
 #include <itkRelabelComponentImageFilter.h>
+#include <itkScalarConnectedComponentImageFilter.h>
 #include <itkSignedMaurerDistanceMapImageFilter.h>
 
 #include "sim/error.h"
@@ -35,40 +36,80 @@ using HuImage = itk::Image<float, 3>;
 using LabelImage = itk::Image<std::uint32_t, 3>;
 using Ball = itk::BinaryBallStructuringElement<std::uint8_t, 3>;
 
+// A box of voxels of a grid: the first voxel and the extent, x fastest.
+struct Box {
+  Eigen::Vector3i start = Eigen::Vector3i::Zero();
+  Eigen::Vector3i size = Eigen::Vector3i::Zero();
+  std::size_t num_voxels() const { return static_cast<std::size_t>(size.x()) * size.y() * size.z(); }
+  std::size_t Index(const Eigen::Vector3i& local) const {
+    return static_cast<std::size_t>(local.x()) +
+           size.x() * (static_cast<std::size_t>(local.y()) + static_cast<std::size_t>(size.y()) * local.z());
+  }
+  bool Contains(const Eigen::Vector3i& v) const {
+    return (v.array() >= start.array()).all() && (v.array() < (start + size).array()).all();
+  }
+};
+
+// Calls f(index in the box, index in the grid of `grid_size`) for each voxel of the box.
+template <class F>
+void ForEachVoxel(const Box& box, const Eigen::Vector3i& grid_size, F&& f) {
+  std::size_t local = 0;
+  for (int k = 0; k < box.size.z(); ++k) {
+    for (int j = 0; j < box.size.y(); ++j) {
+      std::size_t global = static_cast<std::size_t>(box.start.x()) +
+                           grid_size.x() * (static_cast<std::size_t>(box.start.y() + j) +
+                                            static_cast<std::size_t>(grid_size.y()) * (box.start.z() + k));
+      for (int i = 0; i < box.size.x(); ++i) f(local++, global++);
+    }
+  }
+}
+
 // The filters work in voxel units (radii in voxels, components by face
-// adjacency), so the images carry the grid's size only; geometry stays in the
+// adjacency), so the images carry the box's size only; geometry stays in the
 // VoxelMask.
 template <class Image>
-typename Image::Pointer NewImage(const Eigen::Vector3i& size) {
+typename Image::Pointer NewImage(const Eigen::Vector3i& size, bool zero = false) {
   typename Image::Pointer image = Image::New();
   typename Image::SizeType itk_size;
   for (int d = 0; d < 3; ++d) itk_size[d] = static_cast<itk::SizeValueType>(size[d]);
   image->SetRegions(typename Image::RegionType(itk_size));
+  image->Allocate(zero);
+  return image;
+}
+
+template <class Image>
+std::size_t NumPixels(const Image* image) {
+  return image->GetBufferedRegion().GetNumberOfPixels();
+}
+
+// The CT's voxels in `box` as an ITK image: the CT's own buffer when the box
+// is the whole grid (no copy; the filters only read it), else a copy in which
+// voxels whose centres lie outside the region of interest are -infinity, in
+// no HU range.
+HuImage::Pointer WorkingImage(const io::CtImage& ct, const Box& box, const SegmentationOptions& options) {
+  HuImage::Pointer image = HuImage::New();
+  typename HuImage::SizeType itk_size;
+  for (int d = 0; d < 3; ++d) itk_size[d] = static_cast<itk::SizeValueType>(box.size[d]);
+  image->SetRegions(HuImage::RegionType(itk_size));
+  if (!options.roi_min_m) {
+    image->GetPixelContainer()->SetImportPointer(const_cast<float*>(ct.values.data()), ct.values.size(),
+                                                 /*LetContainerManageMemory=*/false);
+    return image;
+  }
   image->Allocate();
+  float* out = image->GetBufferPointer();
+  const Eigen::Vector3d lo = *options.roi_min_m, hi = *options.roi_max_m;
+  const Eigen::Vector3d margin = Eigen::Vector3d::Constant(1e-9);
+  std::size_t local = 0;
+  for (int k = 0; k < box.size.z(); ++k)
+    for (int j = 0; j < box.size.y(); ++j)
+      for (int i = 0; i < box.size.x(); ++i, ++local) {
+        const Eigen::Vector3i v = box.start + Eigen::Vector3i(i, j, k);
+        const Eigen::Vector3d x = ct.PointOf(v.x(), v.y(), v.z());
+        const bool inside = ((x - lo).array() >= -margin.array()).all() && ((hi - x).array() >= -margin.array()).all();
+        out[local] = inside ? ct.at(v.x(), v.y(), v.z()) : -std::numeric_limits<float>::infinity();
+      }
   return image;
-}
-
-HuImage::Pointer ToItk(const io::CtImage& ct) {
-  HuImage::Pointer image = NewImage<HuImage>(ct.size);
-  std::copy(ct.values.begin(), ct.values.end(), image->GetBufferPointer());
-  return image;
-}
-
-MaskImage::Pointer ToItk(const VoxelMask& mask) {
-  MaskImage::Pointer image = NewImage<MaskImage>(mask.size);
-  std::copy(mask.inside.begin(), mask.inside.end(), image->GetBufferPointer());
-  return image;
-}
-
-std::vector<std::uint8_t> Voxels(const MaskImage* image) {
-  const std::uint8_t* begin = image->GetBufferPointer();
-  return {begin, begin + image->GetBufferedRegion().GetNumberOfPixels()};
-}
-
-VoxelMask MaskOnGrid(const io::CtImage& ct, const MaskImage* image) {
-  VoxelMask mask = VoxelMask::OnGridOf(ct);
-  if (image) mask.inside = Voxels(image);
-  return mask;
 }
 
 // Runs a filter on `input` and detaches its output from the pipeline.
@@ -84,21 +125,29 @@ typename Filter::OutputImageType::Pointer Run(Filter* filter, const typename Fil
 MaskImage::Pointer Threshold(const HuImage* ct, const HuRange& range) {
   auto filter = itk::BinaryThresholdImageFilter<HuImage, MaskImage>::New();
   filter->SetLowerThreshold(static_cast<float>(range.min_hu));
-  filter->SetUpperThreshold(static_cast<float>(range.max_hu));
+  filter->SetUpperThreshold(static_cast<float>(std::min<double>(range.max_hu, std::numeric_limits<float>::max())));
   filter->SetInsideValue(1);
   filter->SetOutsideValue(0);
   return Run(filter.GetPointer(), ct);
 }
 
-Ball BallOfRadius(int radius_voxels) {
+// A ball of radius_mm on voxels of spacing_m: a number of voxels along each
+// axis, rounded (an ellipsoid of voxels on anisotropic grids).
+Eigen::Vector3i RadiusVoxels(double radius_mm, const Eigen::Vector3d& spacing_m) {
+  return (radius_mm / (1e3 * spacing_m.array())).round().cast<int>();
+}
+
+Ball BallOfRadius(const Eigen::Vector3i& radius_voxels) {
   Ball ball;
-  ball.SetRadius(static_cast<itk::SizeValueType>(radius_voxels));
+  Ball::SizeType radius;
+  for (int d = 0; d < 3; ++d) radius[d] = static_cast<itk::SizeValueType>(radius_voxels[d]);
+  ball.SetRadius(radius);
   ball.CreateStructuringElement();
   return ball;
 }
 
-MaskImage::Pointer Dilate(MaskImage::Pointer mask, int radius_voxels) {
-  if (radius_voxels == 0) return mask;
+MaskImage::Pointer Dilate(MaskImage::Pointer mask, const Eigen::Vector3i& radius_voxels) {
+  if (radius_voxels.maxCoeff() == 0) return mask;
   auto filter = itk::BinaryDilateImageFilter<MaskImage, MaskImage, Ball>::New();
   filter->SetKernel(BallOfRadius(radius_voxels));
   filter->SetForegroundValue(1);
@@ -108,27 +157,29 @@ MaskImage::Pointer Dilate(MaskImage::Pointer mask, int radius_voxels) {
 
 MaskImage::Pointer Erode(const MaskImage* mask, int radius_voxels) {
   auto filter = itk::BinaryErodeImageFilter<MaskImage, MaskImage, Ball>::New();
-  filter->SetKernel(BallOfRadius(radius_voxels));
+  filter->SetKernel(BallOfRadius(Eigen::Vector3i::Constant(radius_voxels)));
   filter->SetForegroundValue(1);
   filter->SetBackgroundValue(0);
   filter->SetBoundaryToForeground(false);  // what touches the grid's edge is not interior
   return Run(filter.GetPointer(), mask);
 }
 
-MaskImage::Pointer Open(const MaskImage* mask, int radius_voxels) {
+MaskImage::Pointer Open(MaskImage::Pointer mask, const Eigen::Vector3i& radius_voxels) {
+  if (radius_voxels.maxCoeff() == 0) return mask;
   auto filter = itk::BinaryMorphologicalOpeningImageFilter<MaskImage, MaskImage, Ball>::New();
   filter->SetKernel(BallOfRadius(radius_voxels));
   filter->SetForegroundValue(1);
   filter->SetBackgroundValue(0);
-  return Run(filter.GetPointer(), mask);
+  return Run(filter.GetPointer(), mask.GetPointer());
 }
 
-MaskImage::Pointer Close(const MaskImage* mask, int radius_voxels) {
+MaskImage::Pointer Close(MaskImage::Pointer mask, const Eigen::Vector3i& radius_voxels) {
+  if (radius_voxels.maxCoeff() == 0) return mask;
   auto filter = itk::BinaryMorphologicalClosingImageFilter<MaskImage, MaskImage, Ball>::New();
   filter->SetKernel(BallOfRadius(radius_voxels));
   filter->SetForegroundValue(1);
   filter->SetSafeBorder(true);  // nothing grows in from beyond the grid
-  return Run(filter.GetPointer(), mask);
+  return Run(filter.GetPointer(), mask.GetPointer());
 }
 
 MaskImage::Pointer FillHoles(const MaskImage* mask) {
@@ -138,38 +189,108 @@ MaskImage::Pointer FillHoles(const MaskImage* mask) {
   return Run(filter.GetPointer(), mask);
 }
 
-// The connected components of a mask (face adjacency), largest first, as
-// masks of their own.
-std::vector<MaskImage::Pointer> Components(const MaskImage* mask) {
-  auto label = itk::ConnectedComponentImageFilter<MaskImage, LabelImage>::New();
-  label->SetFullyConnected(false);
-  label->SetInput(mask);
-  auto relabel = itk::RelabelComponentImageFilter<LabelImage, LabelImage>::New();
-  relabel->SetSortByObjectSize(true);
-  LabelImage::Pointer labels = Run(relabel.GetPointer(), Run(label.GetPointer(), mask).GetPointer());
-  std::vector<MaskImage::Pointer> components;
-  for (std::uint32_t l = 1; l <= relabel->GetNumberOfObjects(); ++l) {
-    auto pick = itk::BinaryThresholdImageFilter<LabelImage, MaskImage>::New();
-    pick->SetLowerThreshold(l);
-    pick->SetUpperThreshold(l);
-    pick->SetInsideValue(1);
-    pick->SetOutsideValue(0);
-    components.push_back(Run(pick.GetPointer(), labels.GetPointer()));
-  }
-  return components;
-}
-
 std::size_t CountInside(const MaskImage* mask) {
   const std::uint8_t* v = mask->GetBufferPointer();
-  return static_cast<std::size_t>(std::count(v, v + mask->GetBufferedRegion().GetNumberOfPixels(), 1));
+  return static_cast<std::size_t>(std::count(v, v + NumPixels(mask), 1));
 }
 
-// The components of `mask` with structures that touch told apart: the
-// watershed of the distance to the mask's boundary (each basin one blob's
-// centre; a neck between two blobs is a ridge of the negated distance).
-// Minima shallower than depth_voxels are merged, so a voxelised boundary's
-// bumps do not split one blob. Each basin is cut back to the mask.
-std::vector<MaskImage::Pointer> SplitTouching(const MaskImage* mask, double depth_voxels) {
+// keep & ~remove, voxel by voxel, in place.
+void Subtract(MaskImage* keep, const MaskImage* remove) {
+  std::uint8_t* k = keep->GetBufferPointer();
+  const std::uint8_t* r = remove->GetBufferPointer();
+  for (std::size_t i = 0, n = NumPixels(keep); i < n; ++i) k[i] &= !r[i];
+}
+
+// keep & within, voxel by voxel, in place.
+void Intersect(MaskImage* keep, const MaskImage* within) {
+  std::uint8_t* k = keep->GetBufferPointer();
+  const std::uint8_t* w = within->GetBufferPointer();
+  for (std::size_t i = 0, n = NumPixels(keep); i < n; ++i) k[i] &= w[i];
+}
+
+// Connected components as one label image: 1 the largest, then by size; 0
+// the background and components under the minimum size (dropped).
+struct Components {
+  LabelImage::Pointer labels;
+  std::vector<std::size_t> sizes;  // sizes[l - 1]: voxels of label l
+  int found = 0;                   // components before the minimum size
+};
+
+// Sorts and renumbers the labels of `labels` (in place) by size.
+Components Relabel(LabelImage::Pointer labels, std::size_t min_voxels) {
+  auto relabel = itk::RelabelComponentImageFilter<LabelImage, LabelImage>::New();
+  relabel->SetSortByObjectSize(true);
+  relabel->SetMinimumObjectSize(min_voxels);
+  relabel->SetInPlace(true);  // one label image, not two
+  Components c;
+  c.labels = Run(relabel.GetPointer(), labels.GetPointer());
+  for (auto size : relabel->GetSizeOfObjectsInPixels()) c.sizes.push_back(static_cast<std::size_t>(size));
+  c.found = static_cast<int>(relabel->GetOriginalNumberOfObjects());
+  return c;
+}
+
+// The face-connected components of a mask.
+Components LabelComponents(const MaskImage* mask, std::size_t min_voxels = 0) {
+  auto label = itk::ConnectedComponentImageFilter<MaskImage, LabelImage>::New();
+  label->SetFullyConnected(false);
+  return Relabel(Run(label.GetPointer(), mask), min_voxels);
+}
+
+template <class Image>
+Eigen::Vector3i SizeOf(const Image* image) {
+  const auto size = image->GetBufferedRegion().GetSize();
+  return {static_cast<int>(size[0]), static_cast<int>(size[1]), static_cast<int>(size[2])};
+}
+
+// One component of a label image as a mask.
+MaskImage::Pointer Pick(const LabelImage* labels, std::uint32_t label) {
+  MaskImage::Pointer mask = NewImage<MaskImage>(SizeOf(labels));
+  const std::uint32_t* in = labels->GetBufferPointer();
+  std::uint8_t* out = mask->GetBufferPointer();
+  for (std::size_t v = 0, n = NumPixels(labels); v < n; ++v) out[v] = in[v] == label;
+  return mask;
+}
+
+// The smallest box of `mask`'s voxels holding every voxel inside, grown by
+// `pad` voxels within the mask's grid; empty when no voxel is inside.
+Box BoundingBox(const MaskImage* mask, int pad) {
+  const Eigen::Vector3i size = SizeOf(mask);
+  Eigen::Vector3i lo = size, hi = Eigen::Vector3i::Constant(-1);
+  const std::uint8_t* v = mask->GetBufferPointer();
+  std::size_t n = 0;
+  for (int k = 0; k < size.z(); ++k)
+    for (int j = 0; j < size.y(); ++j)
+      for (int i = 0; i < size.x(); ++i)
+        if (v[n++]) {
+          lo = lo.cwiseMin(Eigen::Vector3i(i, j, k));
+          hi = hi.cwiseMax(Eigen::Vector3i(i, j, k));
+        }
+  if (hi.x() < 0) return {};
+  lo = (lo.array() - pad).max(0);
+  hi = (hi.array() + pad).min(size.array() - 1);
+  return {lo, hi - lo + Eigen::Vector3i::Ones()};
+}
+
+template <class Image>
+typename Image::Pointer Crop(const Image* image, const Box& box) {
+  typename Image::Pointer out = NewImage<Image>(box.size);
+  const auto* in = image->GetBufferPointer();
+  auto* o = out->GetBufferPointer();
+  ForEachVoxel(box, SizeOf(image), [&](std::size_t local, std::size_t global) { o[local] = in[global]; });
+  return out;
+}
+
+// The internal structures of `mask`, with structures that touch told apart:
+// the watershed of the distance to the mask's boundary (each basin one
+// blob's centre; a neck between two blobs is a ridge of the negated
+// distance). Minima shallower than depth_voxels are merged, so a voxelised
+// boundary's bumps do not split one blob. Each basin is cut back to the mask,
+// and its connected pieces are the structures, labelled by size within
+// `box` (the mask's bounding box), those under min_voxels dropped.
+Components SplitTouching(const MaskImage* mask, double depth_voxels, std::size_t min_voxels, Box* box) {
+  *box = BoundingBox(mask, 1);
+  if (box->num_voxels() == 0) return {};
+  const MaskImage::Pointer cropped = Crop(mask, *box);
   auto distance = itk::SignedMaurerDistanceMapImageFilter<MaskImage, HuImage>::New();
   distance->SetInsideIsPositive(false);  // negative inside: the blobs' centres are minima
   distance->SetSquaredDistance(false);
@@ -179,61 +300,135 @@ std::vector<MaskImage::Pointer> SplitTouching(const MaskImage* mask, double dept
   watershed->SetLevel(static_cast<float>(depth_voxels));
   watershed->SetMarkWatershedLine(false);
   watershed->SetFullyConnected(false);
-  LabelImage::Pointer basins = Run(watershed.GetPointer(), Run(distance.GetPointer(), mask).GetPointer());
-  std::uint32_t* label = basins->GetBufferPointer();
-  const std::uint8_t* inside = mask->GetBufferPointer();
-  const std::size_t n = mask->GetBufferedRegion().GetNumberOfPixels();
-  std::map<std::uint32_t, MaskImage::Pointer> parts;
-  for (std::size_t v = 0; v < n; ++v) {
-    if (!inside[v]) continue;
-    MaskImage::Pointer& part = parts[label[v]];
-    if (!part) {
-      part = MaskImage::New();
-      part->SetRegions(mask->GetBufferedRegion());
-      part->Allocate(/*initializePixels=*/true);
-    }
-    part->GetBufferPointer()[v] = 1;
+  const LabelImage::Pointer basins =
+      Run(watershed.GetPointer(), Run(distance.GetPointer(), cropped.GetPointer()).GetPointer());
+  // Voxels of one basin and of the mask that touch: the same label, outside
+  // the mask background.
+  auto pieces = itk::ScalarConnectedComponentImageFilter<LabelImage, LabelImage, MaskImage>::New();
+  pieces->SetDistanceThreshold(0);
+  pieces->SetFullyConnected(false);
+  pieces->SetMaskImage(cropped);
+  return Relabel(Run(pieces.GetPointer(), basins.GetPointer()), min_voxels);
+}
+
+VoxelMask MaskOnGrid(const io::CtImage& ct, const Box& box, const MaskImage* image) {
+  VoxelMask mask = VoxelMask::OnGridOf(ct);
+  if (!image) return mask;
+  const std::uint8_t* in = image->GetBufferPointer();
+  ForEachVoxel(box, ct.size, [&](std::size_t local, std::size_t global) { mask.inside[global] = in[local]; });
+  return mask;
+}
+
+VoxelMask LabelOnGrid(const io::CtImage& ct, const Box& box, const LabelImage* labels, std::uint32_t label) {
+  VoxelMask mask = VoxelMask::OnGridOf(ct);
+  const std::uint32_t* in = labels->GetBufferPointer();
+  ForEachVoxel(box, ct.size, [&](std::size_t local, std::size_t global) { mask.inside[global] = in[local] == label; });
+  return mask;
+}
+
+// The box of voxels whose centres may lie in the region of interest (the
+// whole grid without one): the box of S mapped to continuous voxel indices,
+// its corners' bounds; on an oblique grid, WorkingImage excludes the corners
+// outside the box of S.
+Box WorkingBox(const io::CtImage& ct, const SegmentationOptions& options) {
+  Box all{Eigen::Vector3i::Zero(), ct.size};
+  if (!options.roi_min_m) return all;
+  const Eigen::Matrix3d to_index = (ct.direction * ct.spacing_m.asDiagonal()).inverse();
+  Eigen::Vector3d lo = Eigen::Vector3d::Constant(HUGE_VAL), hi = -lo;
+  for (int corner = 0; corner < 8; ++corner) {
+    Eigen::Vector3d x;
+    for (int d = 0; d < 3; ++d) x[d] = (corner >> d & 1) ? (*options.roi_max_m)[d] : (*options.roi_min_m)[d];
+    const Eigen::Vector3d index = to_index * (x - ct.origin_m);
+    lo = lo.cwiseMin(index);
+    hi = hi.cwiseMax(index);
   }
-  std::vector<MaskImage::Pointer> components;
-  for (const auto& [basin, part] : parts) {
-    for (MaskImage::Pointer& piece : Components(part)) components.push_back(piece);
+  const Eigen::Vector3i first = (lo.array() - 1e-6).ceil().max(0).cast<int>();
+  const Eigen::Vector3i last =
+      (hi.array() + 1e-6).floor().min((ct.size.array() - 1).cast<double>()).cast<int>();
+  if ((last.array() < first.array()).any()) {
+    const Eigen::Vector3d far = ct.PointOf(ct.size.x() - 1, ct.size.y() - 1, ct.size.z() - 1);
+    throw Error(fmt::format("the region of interest [{:.1f}, {:.1f}, {:.1f}] .. [{:.1f}, {:.1f}, {:.1f}] mm holds no "
+                            "voxel centre of the CT, whose voxels run from ({:.1f}, {:.1f}, {:.1f}) to ({:.1f}, "
+                            "{:.1f}, {:.1f}) mm",
+                            1e3 * options.roi_min_m->x(), 1e3 * options.roi_min_m->y(), 1e3 * options.roi_min_m->z(),
+                            1e3 * options.roi_max_m->x(), 1e3 * options.roi_max_m->y(), 1e3 * options.roi_max_m->z(),
+                            1e3 * ct.origin_m.x(), 1e3 * ct.origin_m.y(), 1e3 * ct.origin_m.z(), 1e3 * far.x(),
+                            1e3 * far.y(), 1e3 * far.z()),
+                ct.source, "give the region of interest in the scan frame S (LPS for DICOM), in mm");
   }
-  std::stable_sort(components.begin(), components.end(), [](const MaskImage::Pointer& a, const MaskImage::Pointer& b) {
-    return CountInside(a) > CountInside(b);
-  });
-  return components;
-}
-
-// keep & ~remove, voxel by voxel, in place.
-void Subtract(MaskImage* keep, const MaskImage* remove) {
-  std::uint8_t* k = keep->GetBufferPointer();
-  const std::uint8_t* r = remove->GetBufferPointer();
-  for (std::size_t i = 0, n = keep->GetBufferedRegion().GetNumberOfPixels(); i < n; ++i) k[i] &= !r[i];
-}
-
-// keep & within, voxel by voxel, in place.
-void Intersect(MaskImage* keep, const MaskImage* within) {
-  std::uint8_t* k = keep->GetBufferPointer();
-  const std::uint8_t* w = within->GetBufferPointer();
-  for (std::size_t i = 0, n = keep->GetBufferedRegion().GetNumberOfPixels(); i < n; ++i) k[i] &= w[i];
-}
-
-// The largest component of `candidates`, holes filled, and how many candidate
-// voxels lay outside it; null when there is no candidate.
-MaskImage::Pointer LargestSolid(const MaskImage* candidates, int closing_radius_voxels, std::size_t* dropped) {
-  std::vector<MaskImage::Pointer> components = Components(candidates);
-  if (components.empty()) return nullptr;
-  *dropped = CountInside(candidates) - CountInside(components.front());
-  MaskImage::Pointer solid = components.front();
-  if (closing_radius_voxels > 0) solid = Close(solid, closing_radius_voxels);
-  return FillHoles(solid);
+  return {first, last - first + Eigen::Vector3i::Ones()};
 }
 
 std::string Millimetres(const Eigen::Vector3d& v_m) {
-  return fmt::format("({:g}, {:g}, {:g}) mm", 1e3 * v_m.x(), 1e3 * v_m.y(), 1e3 * v_m.z());
+  return fmt::format("({:.1f}, {:.1f}, {:.1f}) mm", 1e3 * v_m.x(), 1e3 * v_m.y(), 1e3 * v_m.z());
 }
 
 std::string RangeText(const HuRange& range) { return fmt::format("[{:g}, {:g}] HU", range.min_hu, range.max_hu); }
+
+// The voxel nearest to a point of S, which may lie outside the grid.
+Eigen::Vector3i VoxelOf(const io::CtImage& ct, const Eigen::Vector3d& x_m) {
+  const Eigen::Vector3d index = (ct.direction * ct.spacing_m.asDiagonal()).inverse() * (x_m - ct.origin_m);
+  return index.array().round().cast<int>();
+}
+
+// The label of the candidate component that holds the seed point.
+// @throws dg::Error when the point lies outside the grid or the region, or
+//   in no candidate component, naming the nearest component.
+std::uint32_t SeedLabel(const io::CtImage& ct, const Box& box, const Components& candidates,
+                        const SegmentationOptions& options) {
+  const Eigen::Vector3d seed_m = *options.seed_point_m;
+  const Eigen::Vector3i v = VoxelOf(ct, seed_m);
+  const std::string fix = "give a seed point inside the organ, in the scan frame S (LPS for DICOM), in mm, or "
+                          "widen the organ's HU range";
+  if (!Box{Eigen::Vector3i::Zero(), ct.size}.Contains(v) || !box.Contains(v)) {
+    throw Error(fmt::format("the seed point {} lies outside the CT's grid{} (nearest voxel index ({}, {}, {}) of {} x "
+                            "{} x {})",
+                            Millimetres(seed_m), options.roi_min_m ? " or the region of interest" : "", v.x(), v.y(),
+                            v.z(), ct.size.x(), ct.size.y(), ct.size.z()),
+                ct.source, fix);
+  }
+  const Eigen::Vector3i local = v - box.start;
+  const std::uint32_t* labels = candidates.labels->GetBufferPointer();
+  if (const std::uint32_t label = labels[box.Index(local)]; label != 0) return label;
+
+  // The nearest voxel of any candidate component, for the message.
+  const Eigen::Matrix3d to_s = ct.direction * ct.spacing_m.asDiagonal();
+  double best_m = HUGE_VAL;
+  Eigen::Vector3i best_voxel = Eigen::Vector3i::Zero();
+  std::uint32_t best_label = 0;
+  std::size_t n = 0;
+  for (int k = 0; k < box.size.z(); ++k)
+    for (int j = 0; j < box.size.y(); ++j)
+      for (int i = 0; i < box.size.x(); ++i, ++n) {
+        if (labels[n] == 0) continue;
+        const double d_m = (to_s * (Eigen::Vector3i(i, j, k) - local).cast<double>()).norm();
+        if (d_m < best_m) {
+          best_m = d_m;
+          best_voxel = box.start + Eigen::Vector3i(i, j, k);
+          best_label = labels[n];
+        }
+      }
+  const double voxel_ml = 1e6 * ct.spacing_m.prod();
+  std::string nearest = best_label == 0
+                            ? "no candidate component at all"
+                            : fmt::format("the nearest candidate component ({} of {}, {:.1f} ml) reaches {}, {:.1f} mm "
+                                          "away",
+                                          best_label, candidates.sizes.size(),
+                                          voxel_ml * static_cast<double>(candidates.sizes[best_label - 1]),
+                                          Millimetres(ct.PointOf(best_voxel.x(), best_voxel.y(), best_voxel.z())),
+                                          1e3 * best_m);
+  const float hu = ct.at(v.x(), v.y(), v.z());
+  throw Error(fmt::format("the seed point {} is in no organ candidate: its voxel ({}, {}, {}) holds {:g} HU, the organ "
+                          "range is {}{}; {}",
+                          Millimetres(seed_m), v.x(), v.y(), v.z(), hu, RangeText(options.organ_hu),
+                          options.organ_hu.Contains(hu)
+                              ? fmt::format(" (in range, but removed with the mount, the markers or the opening "
+                                            "by {:g} mm)",
+                                            options.opening_radius_mm)
+                              : "",
+                          nearest),
+              ct.source, fix);
+}
 
 std::string ValidateRange(const HuRange& range, const char* name) {
   if (!std::isfinite(range.min_hu) || !std::isfinite(range.max_hu) || range.min_hu > range.max_hu) {
@@ -253,11 +448,38 @@ void RequireValid(const SegmentationOptions& options, const io::CtImage& ct) {
   }
 }
 
+// The report's counts and its description of the organ: volume, bounding box
+// of its voxels' centres in S, median HU.
+void Summarise(const io::CtImage& ct, Segmentation* s) {
+  SegmentationReport& r = s->report;
+  r.organ_voxels = s->organ.Count();
+  r.mount_voxels = s->mount.Count();
+  r.internal_voxels.clear();
+  for (const VoxelMask& m : s->internal) r.internal_voxels.push_back(m.Count());
+  r.organ_volume_ml = 1e6 * s->organ.Volume_m3();
+  Eigen::Vector3d lo = Eigen::Vector3d::Constant(HUGE_VAL), hi = -lo;
+  std::vector<float> hu;
+  hu.reserve(r.organ_voxels);
+  std::size_t n = 0;
+  for (int k = 0; k < ct.size.z(); ++k)
+    for (int j = 0; j < ct.size.y(); ++j)
+      for (int i = 0; i < ct.size.x(); ++i, ++n) {
+        if (!s->organ.inside[n]) continue;
+        const Eigen::Vector3d x = ct.PointOf(i, j, k);
+        lo = lo.cwiseMin(x);
+        hi = hi.cwiseMax(x);
+        hu.push_back(ct.values[n]);
+      }
+  if (hu.empty()) return;
+  r.organ_min_mm = 1e3 * lo;
+  r.organ_max_mm = 1e3 * hi;
+  auto middle = hu.begin() + static_cast<std::ptrdiff_t>(hu.size() / 2);
+  std::nth_element(hu.begin(), middle, hu.end());
+  r.organ_median_hu = *middle;
+}
+
 void LogSegmentation(const Segmentation& s, const std::string& source) {
-  Logger("stages").info("segmented {}: organ {} voxels ({} dropped outside its largest component), mount {}, "
-                        "{} internal structures ({} small components dropped)",
-                        source, s.report.organ_voxels, s.report.organ_voxels_dropped, s.report.mount_voxels,
-                        s.internal.size(), s.report.internal_components_dropped);
+  Logger("stages").info("segmented {}: {}", source, s.report.Describe());
 }
 
 // Runs the ITK part of a segmentation, turning ITK's exceptions into dg::Error.
@@ -269,6 +491,67 @@ Segmentation Guarded(const io::CtImage& ct, F&& segment) {
     throw Error(std::string("segmentation failed in ITK: ") + e.GetDescription(), ct.source,
                 "check the CT image and the segmentation options");
   }
+}
+
+// Steps 1-5 of the automatic mode within `box`: the organ's solid, and the
+// mount and markers (null when there are none) for step 6.
+struct Solids {
+  MaskImage::Pointer organ, mount, markers;
+};
+
+Solids SegmentSolids(const io::CtImage& ct, const Box& box, const HuImage* hu, const SegmentationOptions& options,
+                     SegmentationReport* report) {
+  Solids s;
+  if (options.find_mount) {
+    const Components mounts = LabelComponents(Threshold(hu, options.mount_hu));
+    if (!mounts.sizes.empty()) s.mount = Pick(mounts.labels, 1);
+  }
+  if (options.marker_min_hu) {
+    s.markers = Dilate(Threshold(hu, {*options.marker_min_hu, HUGE_VAL}),
+                       Eigen::Vector3i::Constant(options.marker_margin_voxels));
+  }
+  MaskImage::Pointer candidates = Threshold(hu, options.organ_hu);
+  if (s.mount) Subtract(candidates, s.mount);
+  if (s.markers) Subtract(candidates, s.markers);
+  candidates = Open(candidates, RadiusVoxels(options.opening_radius_mm, ct.spacing_m));
+  const std::size_t candidate_voxels = CountInside(candidates);
+  const Components components = LabelComponents(candidates);
+  candidates = nullptr;
+  if (components.sizes.empty()) {
+    const auto [lo, hi] = std::minmax_element(ct.values.begin(), ct.values.end());
+    throw Error(fmt::format("no organ voxel: none in the organ range {} apart from the mount and markers{} "
+                            "(the image spans [{:g}, {:g}] HU)",
+                            RangeText(options.organ_hu), options.roi_min_m ? ", within the region of interest" : "",
+                            *lo, *hi),
+                ct.source, "set the organ's HU range to the tissue's CT numbers, or give a label map");
+  }
+  const std::uint32_t label = options.seed_point_m ? SeedLabel(ct, box, components, options) : 1;
+  report->organ_components = components.found;
+  report->organ_voxels_dropped = candidate_voxels - components.sizes[label - 1];
+  s.organ = FillHoles(Close(Pick(components.labels, label), RadiusVoxels(options.closing_radius_mm, ct.spacing_m)));
+  return s;
+}
+
+// Step 6: the internal structures kept, as masks on the CT's grid.
+std::vector<VoxelMask> SegmentInternal(const io::CtImage& ct, const Box& box, const HuImage* hu, const Solids& solids,
+                                       const SegmentationOptions& options, SegmentationReport* report) {
+  if (options.max_internal_structures == 0) return {};
+  MaskImage::Pointer internal = Threshold(hu, options.internal_hu);
+  Intersect(internal, Erode(solids.organ, 1));
+  if (solids.markers) Subtract(internal, solids.markers);
+  // A structure is kept when count * voxel volume >= the minimum volume.
+  const double min_voxels = options.min_internal_volume_m3 / ct.spacing_m.prod();
+  Box split_box;
+  const Components structures = SplitTouching(internal, options.internal_split_depth_voxels,
+                                              static_cast<std::size_t>(std::ceil(min_voxels - 1e-9)), &split_box);
+  internal = nullptr;
+  const int kept = std::min(static_cast<int>(structures.sizes.size()), options.max_internal_structures);
+  report->internal_components = structures.found;
+  report->internal_components_dropped = structures.found - kept;
+  const Box on_grid{box.start + split_box.start, split_box.size};
+  std::vector<VoxelMask> masks;
+  for (int l = 1; l <= kept; ++l) masks.push_back(LabelOnGrid(ct, on_grid, structures.labels, l));
+  return masks;
 }
 
 }  // namespace
@@ -285,19 +568,41 @@ VoxelMask VoxelMask::OnGridOf(const io::CtImage& image) {
 
 std::size_t VoxelMask::Count() const { return static_cast<std::size_t>(std::count(inside.begin(), inside.end(), 1)); }
 
+std::string SegmentationReport::Describe() const {
+  return fmt::format("organ {:.1f} ml, {} voxels, S box ({:.1f}, {:.1f}, {:.1f}) .. ({:.1f}, {:.1f}, {:.1f}) mm, "
+                     "median {:g} HU; {} candidate components ({} voxels dropped outside the organ's); mount {} "
+                     "voxels; {} internal structures kept of {} found ({} dropped)",
+                     organ_volume_ml, organ_voxels, organ_min_mm.x(), organ_min_mm.y(), organ_min_mm.z(),
+                     organ_max_mm.x(), organ_max_mm.y(), organ_max_mm.z(), organ_median_hu, organ_components,
+                     organ_voxels_dropped, mount_voxels, internal_voxels.size(), internal_components,
+                     internal_components_dropped);
+}
+
 std::string SegmentationOptions::Validate() const {
   for (auto [range, name] : {std::pair{&organ_hu, "organ_hu"}, {&internal_hu, "internal_hu"}, {&mount_hu, "mount_hu"}}) {
     if (std::string problem = ValidateRange(*range, name); !problem.empty()) return problem;
   }
-  if (!std::isfinite(marker_min_hu)) return "marker_min_hu must be finite";
-  if (marker_margin_voxels < 0 || closing_radius_voxels < 0) {
-    return fmt::format("marker_margin_voxels ({}) and closing_radius_voxels ({}) must be >= 0", marker_margin_voxels,
-                       closing_radius_voxels);
+  if (marker_min_hu && !std::isfinite(*marker_min_hu)) return "marker_min_hu must be finite (or unset: no markers)";
+  if (marker_margin_voxels < 0) return fmt::format("marker_margin_voxels must be >= 0, got {}", marker_margin_voxels);
+  if (!(opening_radius_mm >= 0) || !(closing_radius_mm >= 0) || !std::isfinite(opening_radius_mm) ||
+      !std::isfinite(closing_radius_mm)) {
+    return fmt::format("opening_radius_mm ({:g}) and closing_radius_mm ({:g}) must be finite and >= 0",
+                       opening_radius_mm, closing_radius_mm);
   }
   if (!(internal_split_depth_voxels > 0)) {
     return fmt::format("internal_split_depth_voxels must be positive, got {:g}", internal_split_depth_voxels);
   }
   if (!(min_internal_volume_m3 >= 0)) return "min_internal_volume_m3 must be >= 0";
+  if (max_internal_structures < 0) {
+    return fmt::format("max_internal_structures must be >= 0, got {}", max_internal_structures);
+  }
+  if (roi_min_m.has_value() != roi_max_m.has_value()) return "roi_min_m and roi_max_m must be given together";
+  if (roi_min_m && (!roi_min_m->allFinite() || !roi_max_m->allFinite() ||
+                    (roi_min_m->array() >= roi_max_m->array()).any())) {
+    return fmt::format("the region of interest must have roi_min_m < roi_max_m on every axis, got {} .. {}",
+                       Millimetres(*roi_min_m), Millimetres(*roi_max_m));
+  }
+  if (seed_point_m && !seed_point_m->allFinite()) return "seed_point_m must be finite";
   std::set<int> labels(internal_labels.begin(), internal_labels.end());
   if (labels.size() != internal_labels.size()) return "internal_labels repeat a label";
   if (organ_label == 0) return "organ_label must not be 0 (the background)";
@@ -313,46 +618,14 @@ std::string SegmentationOptions::Validate() const {
 Segmentation Segment(const io::CtImage& ct, const SegmentationOptions& options) {
   RequireValid(options, ct);
   return Guarded(ct, [&] {
-    const HuImage::Pointer hu = ToItk(ct);
+    const Box box = WorkingBox(ct, options);
+    const HuImage::Pointer hu = WorkingImage(ct, box, options);
     Segmentation s;
-
-    const std::vector<MaskImage::Pointer> mounts = Components(Threshold(hu, options.mount_hu));
-    const MaskImage::Pointer mount = mounts.empty() ? nullptr : mounts.front();
-    s.mount = MaskOnGrid(ct, mount);
-
-    const MaskImage::Pointer markers =
-        Dilate(Threshold(hu, {options.marker_min_hu, HUGE_VAL}), options.marker_margin_voxels);
-
-    MaskImage::Pointer candidates = Threshold(hu, options.organ_hu);
-    if (mount) Subtract(candidates, mount);
-    Subtract(candidates, markers);
-    candidates = Open(candidates, 1);
-    const MaskImage::Pointer organ =
-        LargestSolid(candidates, options.closing_radius_voxels, &s.report.organ_voxels_dropped);
-    if (!organ) {
-      const auto [lo, hi] = std::minmax_element(ct.values.begin(), ct.values.end());
-      throw Error(fmt::format("no organ voxel: none in the organ range {} apart from the mount and markers "
-                              "(the image spans [{:g}, {:g}] HU)",
-                              RangeText(options.organ_hu), *lo, *hi),
-                  ct.source, "set the organ's HU range to the tissue's CT numbers, or give a label map");
-    }
-    s.organ = MaskOnGrid(ct, organ);
-
-    MaskImage::Pointer internal = Threshold(hu, options.internal_hu);
-    Intersect(internal, Erode(organ, 1));
-    Subtract(internal, markers);
-    const double voxel_m3 = ct.spacing_m.prod();
-    for (const MaskImage::Pointer& component : SplitTouching(internal, options.internal_split_depth_voxels)) {
-      if (static_cast<double>(CountInside(component)) * voxel_m3 < options.min_internal_volume_m3) {
-        ++s.report.internal_components_dropped;
-        continue;
-      }
-      s.internal.push_back(MaskOnGrid(ct, component));
-    }
-
-    s.report.organ_voxels = s.organ.Count();
-    s.report.mount_voxels = s.mount.Count();
-    for (const VoxelMask& m : s.internal) s.report.internal_voxels.push_back(m.Count());
+    Solids solids = SegmentSolids(ct, box, hu, options, &s.report);
+    s.internal = SegmentInternal(ct, box, hu, solids, options, &s.report);
+    s.organ = MaskOnGrid(ct, box, solids.organ);
+    s.mount = MaskOnGrid(ct, box, solids.mount);
+    Summarise(ct, &s);
     LogSegmentation(s, ct.source);
     return s;
   });
@@ -389,10 +662,17 @@ Segmentation Segment(const io::CtImage& ct, const io::CtImage& labels, const Seg
   }
   s.mount = options.mount_label != 0 ? label_mask(options.mount_label) : VoxelMask::OnGridOf(ct);
   return Guarded(ct, [&] {
-    s.organ = MaskOnGrid(ct, LargestSolid(ToItk(organ_candidates), 0, &s.report.organ_voxels_dropped));
-    s.report.organ_voxels = s.organ.Count();
-    s.report.mount_voxels = s.mount.Count();
-    for (const VoxelMask& m : s.internal) s.report.internal_voxels.push_back(m.Count());
+    const Box all{Eigen::Vector3i::Zero(), ct.size};
+    MaskImage::Pointer candidates = NewImage<MaskImage>(ct.size);
+    std::copy(organ_candidates.inside.begin(), organ_candidates.inside.end(), candidates->GetBufferPointer());
+    const std::size_t candidate_voxels = organ_candidates.Count();
+    organ_candidates = VoxelMask{};
+    const Components components = LabelComponents(candidates);
+    candidates = nullptr;
+    s.report.organ_components = components.found;
+    s.report.organ_voxels_dropped = candidate_voxels - components.sizes.front();
+    s.organ = MaskOnGrid(ct, all, FillHoles(Pick(components.labels, 1)));
+    Summarise(ct, &s);
     LogSegmentation(s, labels.source);
     return s;
   });

@@ -2,6 +2,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -48,50 +49,78 @@ struct HuRange {
 // Assumptions, as the paper's: the organ is ONE solid of spherical topology
 // (one connected component, no tunnels; the internal structures lie inside it
 // and are part of the solid, so the solid is the organ with its cavities
-// filled); the mount is one rigid body the organ rests on. What is not in the
-// organ's largest connected component is dropped, and the report counts it.
+// filled); the mount, when there is one, is one rigid body the organ rests on.
+// What is not in the organ's component is dropped, and the report counts it.
 //
-// Automatic mode (no label map), on the phantom's CT numbers in HU (air at -1000,
-// epicardial fat at -100, tissue at 40, chambers 250, mount 500, beads 3000):
-//  1. mount: the largest connected component of mount_hu;
-//  2. markers: voxels of at least marker_min_hu, grown by marker_margin_voxels
-//     to take in their partial-volume shell. The fiducial beads are rigid
-//     markers glued on the surface, not tissue: the paper's mesh and the
-//     phantom's true surface leave them out, and keeping them would put a
-//     2 mm bump under every bead. So they are cut out of the organ and the
-//     dent they leave is closed again (step 5);
+// Automatic mode (no label map). The defaults are the phantom's (preset
+// "phantom"; segmentation_presets.h has real scans' presets), whose CT
+// numbers in HU are air -1000, epicardial fat -100, tissue 40, chambers 250,
+// mount 500, beads 3000, on 1 mm voxels:
+//  0. the region of interest, when given: voxels whose centres lie outside the
+//     box [roi_min_m, roi_max_m] of S are no candidate for anything;
+//  1. mount (find_mount): the largest connected component of mount_hu;
+//  2. markers (marker_min_hu set): voxels of at least marker_min_hu, grown by
+//     marker_margin_voxels to take in their partial-volume shell. The
+//     fiducial beads are rigid markers glued on the surface, not tissue: the
+//     paper's mesh and the phantom's true surface leave them out, and keeping
+//     them would put a 2 mm bump under every bead. So they are cut out of the
+//     organ and the dent they leave is closed again (step 5);
 //  3. the organ's candidates: organ_hu (tissue and internal structures) minus
-//     the mount and the markers, opened by one voxel (a ball of radius 1):
-//     this removes the one-voxel layer of mount-air partial volume on top of
-//     the mount, whose mixed values fall in the tissue range;
-//  4. the largest connected component (face-connected);
-//  5. closed by a ball of closing_radius_voxels (restores the markers' dents,
-//     a bead's radius plus the margin deep: a ball wider than the dent cannot
-//     enter it; on the phantom 5 voxels left 1.6 mm at worst, 3 left 2.4 mm)
+//     the mount and the markers, opened by a ball of opening_radius_mm: on the
+//     phantom (one voxel) this removes the layer of mount-air partial volume
+//     on top of the mount, whose mixed values fall in the tissue range; on a
+//     patient it cuts the thin bridges between touching organs;
+//  4. the organ is the candidates' connected component (face-connected) that
+//     holds seed_point_m, or without a seed point the largest one;
+//  5. closed by a ball of closing_radius_mm (restores the markers' dents, a
+//     bead's radius plus the margin deep: a ball wider than the dent cannot
+//     enter it; on the phantom 5 mm left 1.6 mm at worst, 3 mm left 2.4 mm)
 //     and holes filled;
 //  6. internal structures: internal_hu inside the organ eroded by one voxel
 //     (the organ's bottom layer mixes tissue with mount into the internal
-//     range) and away from the markers, split into structures, largest
-//     first, those under min_internal_volume_m3 dropped and counted. Structures
-//     that touch (the phantom's two chambers share a contact patch about 5
-//     voxels across) are one connected component, and an opening would need
-//     a ball wider than the patch; they are told apart by the watershed of the
-//     distance to the mask's boundary, whose basins are the blobs, minima
-//     less than internal_split_depth_voxels deep merged.
+//     range) and away from the markers, split into structures; those of at
+//     least min_internal_volume_m3 are kept, largest first, at most
+//     max_internal_structures of them, and the others are counted as dropped.
+//     Structures that touch (the phantom's two chambers share a contact patch
+//     about 5 voxels across) are one connected component, and an opening
+//     would need a ball wider than the patch; they are told apart by the
+//     watershed of the distance to the mask's boundary, whose basins are the
+//     blobs, minima less than internal_split_depth_voxels deep merged.
+// Ball radii given in mm become a number of voxels along each axis (rounded),
+// so a ball on anisotropic voxels is an ellipsoid of voxels.
+//
+// Memory: components are one label image (32 bits a voxel), never a mask per
+// component; the internal structures are split within their bounding box,
+// and only the structures kept become VoxelMasks. The peak stays under 6
+// times the CT's own size (a test).
 //
 // Label-map mode: organ = organ_label or any internal label, then steps 4-5
-// (largest component, holes filled; no closing); mount = mount_label; each
-// internal label is one structure.
+// (largest component, holes filled; no closing; no region of interest or
+// seed point); mount = mount_label; each internal label is one structure.
 struct SegmentationOptions {
+  // The preset these options came from (SegmentationPreset), for the report.
+  std::string preset = "phantom";
+
   // Automatic mode. Bounds sit half-way between the phantom's materials.
   HuRange organ_hu{-480, 375};
   HuRange internal_hu{145, 375};
   HuRange mount_hu{375, 1750};
-  double marker_min_hu = 1750;
+  bool find_mount = true;                       // false: no mount (a patient)
+  std::optional<double> marker_min_hu = 1750;   // empty: no markers cut out
   int marker_margin_voxels = 1;
-  int closing_radius_voxels = 5;
+  double opening_radius_mm = 1.0;               // 0: no opening
+  double closing_radius_mm = 5.0;               // 0: no closing
   double internal_split_depth_voxels = 1.0;
-  double min_internal_volume_m3 = 50e-9;  // 50 mm^3
+  double min_internal_volume_m3 = 50e-9;        // 50 mm^3
+  int max_internal_structures = 8;              // 0: no internal structures
+
+  // Automatic mode: a box of S (metres) outside which no voxel is a
+  // candidate; both corners or neither.
+  std::optional<Eigen::Vector3d> roi_min_m;
+  std::optional<Eigen::Vector3d> roi_max_m;
+  // Automatic mode: a point of S (metres) inside the organ; its candidate
+  // component is the organ instead of the largest one.
+  std::optional<Eigen::Vector3d> seed_point_m;
 
   // Label-map mode (used when Segment() is given a label map).
   int organ_label = 1;
@@ -106,8 +135,19 @@ struct SegmentationReport {
   std::size_t organ_voxels = 0;
   std::size_t mount_voxels = 0;
   std::vector<std::size_t> internal_voxels;
-  std::size_t organ_voxels_dropped = 0;     // candidates outside the largest component
-  int internal_components_dropped = 0;      // components under min_internal_volume_m3
+  std::size_t organ_voxels_dropped = 0;     // candidates outside the organ's component
+  int organ_components = 0;                 // candidate components, the organ's among them
+  int internal_components = 0;              // internal components found (touching ones split)
+  int internal_components_dropped = 0;      // under min_internal_volume_m3 or beyond max_internal_structures
+
+  // What was segmented: the organ's volume, the bounding box of its voxels'
+  // centres in S, and the median CT number inside it.
+  double organ_volume_ml = 0;
+  Eigen::Vector3d organ_min_mm = Eigen::Vector3d::Zero();
+  Eigen::Vector3d organ_max_mm = Eigen::Vector3d::Zero();
+  double organ_median_hu = 0;
+
+  std::string Describe() const;  // one line: volume, box, median HU, components found and dropped
 };
 
 struct Segmentation {
@@ -117,9 +157,12 @@ struct Segmentation {
   SegmentationReport report;
 };
 
-// Automatic segmentation of one CT phase.
-// @throws dg::Error for invalid options, an image without voxels, or when no
-//   organ voxel is found (naming the HU range and the image's own range).
+// Automatic segmentation of one CT phase, on any direction of its grid.
+// @throws dg::Error for invalid options, an image without voxels, a region of
+//   interest that misses the grid, when no organ voxel is found (naming the
+//   HU range and the image's own range), and a seed point outside the grid or
+//   the region or in no candidate component (naming the point, its voxel's HU,
+//   the range and the nearest candidate component).
 Segmentation Segment(const io::CtImage& ct, const SegmentationOptions& options);
 
 // Segmentation from a label map on the CT's grid (3D Slicer, ITK-SNAP).

@@ -3,12 +3,14 @@
 #include <cmath>
 #include <numbers>
 #include <string>
+#include <vector>
 
 #include <Eigen/Geometry>
 #include <catch2/catch.hpp>
 
 #include "sim/error.h"
 #include "stages/preop/segment/segmentation.h"
+#include "stages/preop/segment/segmentation_presets.h"
 #include "stages/preop/segment/surface_extraction.h"
 
 namespace dg::stages::preop {
@@ -132,6 +134,150 @@ TEST_CASE("preop segment: a label map gives the organ with its internal structur
   CHECK(s.report.organ_voxels_dropped == 0);
 }
 
+// A ball of voxels (centres within radius_vox of `centre`, voxel units) of one HU.
+struct Blob {
+  Eigen::Vector3d centre;
+  double radius_vox;
+  float hu;
+};
+
+// A CT of n^3 voxels of 1 mm, air with blobs painted in order (later over earlier).
+io::CtImage BlobsCt(int n, const std::vector<Blob>& blobs, const Eigen::Matrix3d& direction = Eigen::Matrix3d::Identity()) {
+  io::CtImage ct = BallCt(n, -1, direction);
+  ct.source = "synthetic blobs";
+  for (int k = 0; k < n; ++k)
+    for (int j = 0; j < n; ++j)
+      for (int i = 0; i < n; ++i)
+        for (const Blob& b : blobs)
+          if ((Eigen::Vector3d(i, j, k) - b.centre).norm() <= b.radius_vox) ct.values[ct.Index(i, j, k)] = b.hu;
+  return ct;
+}
+
+// The mean voxel index of a mask.
+Eigen::Vector3d Centroid(const VoxelMask& mask) {
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  std::size_t n = 0;
+  for (int k = 0; k < mask.size.z(); ++k)
+    for (int j = 0; j < mask.size.y(); ++j)
+      for (int i = 0; i < mask.size.x(); ++i)
+        if (mask.inside[mask.Index(i, j, k)]) sum += Eigen::Vector3d(i, j, k), ++n;
+  return sum / static_cast<double>(n);
+}
+
+Eigen::Matrix3d Mirror() {
+  Eigen::Matrix3d mirror;
+  mirror << 0, 1, 0, 1, 0, 0, 0, 0, -1;
+  return mirror;
+}
+
+// Two separate tissue balls, the larger at x = 10 voxels, the smaller at x = 24.
+const Blob kLarge{{10, 16, 16}, 6, 40.0f};
+const Blob kSmall{{24, 16, 16}, 4, 40.0f};
+
+TEST_CASE("preop segment: a seed point picks its component, in any frame", "[unit]") {
+  for (const Eigen::Matrix3d& direction : {Eigen::Matrix3d(Eigen::Matrix3d::Identity()), Mirror()}) {
+    const io::CtImage ct = BlobsCt(32, {kLarge, kSmall}, direction);
+    SegmentationOptions options;
+    const Segmentation largest = Segment(ct, options);
+    CHECK((Centroid(largest.organ) - kLarge.centre).norm() < 0.1);
+    CHECK(largest.report.organ_components == 2);
+
+    options.seed_point_m = ct.PointOf(kSmall.centre.x() + 2, kSmall.centre.y(), kSmall.centre.z());
+    const Segmentation seeded = Segment(ct, options);
+    CHECK((Centroid(seeded.organ) - kSmall.centre).norm() < 0.1);
+    // Every candidate voxel outside the small ball is dropped: the large ball's.
+    CHECK(seeded.report.organ_voxels_dropped == largest.report.organ_voxels);
+  }
+}
+
+TEST_CASE("preop segment: a seed point in no candidate names its HU, the range and the nearest component", "[unit]") {
+  const io::CtImage ct = BlobsCt(32, {kLarge, kSmall});
+  SegmentationOptions options;
+  options.opening_radius_mm = 0;  // the opening would take the ball's poles
+  // In the air one voxel beyond the large ball's pole at (16, 16, 16): 1 mm from it.
+  options.seed_point_m = ct.PointOf(17, 16, 16);
+  REQUIRE_THROWS_WITH(Segment(ct, options),
+                      Contains("seed point (27.0, -4.0, 46.0) mm") && Contains("-1000 HU") &&
+                          Contains("[-480, 375] HU") && Contains("component (1 of 2, ") && Contains("1.0 mm away") &&
+                          Contains("fix:"));
+  options.seed_point_m = ct.PointOf(40, 16, 16);
+  REQUIRE_THROWS_WITH(Segment(ct, options), Contains("outside the CT's grid"));
+}
+
+TEST_CASE("preop segment: voxels outside the region of interest are no candidates, in any frame", "[unit]") {
+  for (const Eigen::Matrix3d& direction : {Eigen::Matrix3d(Eigen::Matrix3d::Identity()), Mirror()}) {
+    const io::CtImage ct = BlobsCt(32, {kLarge, kSmall}, direction);
+    SegmentationOptions options;
+    // A box of S about the small ball, 6 mm each way (its corners may map to any voxel corners).
+    const Eigen::Vector3d centre_m = ct.PointOf(kSmall.centre.x(), kSmall.centre.y(), kSmall.centre.z());
+    options.roi_min_m = centre_m - Eigen::Vector3d::Constant(6e-3);
+    options.roi_max_m = centre_m + Eigen::Vector3d::Constant(6e-3);
+    const Segmentation s = Segment(ct, options);
+    CHECK((Centroid(s.organ) - kSmall.centre).norm() < 0.1);
+    CHECK(s.report.organ_components == 1);
+    CHECK(s.report.organ_voxels_dropped == 0);
+
+    options.roi_min_m = ct.origin_m + Eigen::Vector3d::Constant(1.0);
+    options.roi_max_m = ct.origin_m + Eigen::Vector3d::Constant(1.1);
+    REQUIRE_THROWS_WITH(Segment(ct, options), Contains("region of interest") && Contains("holds no voxel centre"));
+  }
+}
+
+TEST_CASE("preop segment: the report gives the organ's volume, box and median HU", "[unit]") {
+  // A tissue ball of radius 8 voxels with a chamber (250 HU) of radius 3 inside.
+  const io::CtImage ct = BlobsCt(32, {{{16, 16, 16}, 8, 40.0f}, {{16, 16, 16}, 3, 250.0f}});
+  SegmentationOptions options;
+  options.opening_radius_mm = 0;  // the opening would take the ball's poles
+  const Segmentation s = Segment(ct, options);
+  const SegmentationReport& r = s.report;
+  CHECK(r.organ_volume_ml == Approx(1e-3 * static_cast<double>(r.organ_voxels)));
+  // The ball's 1 mm voxels: 4/3 pi 8^3 = 2145 mm^3 to a voxel's layer.
+  CHECK(r.organ_volume_ml == Approx(4.0 / 3.0 * std::numbers::pi * 512e-3).epsilon(0.03));
+  // Its voxel centres reach 8 voxels from the centre (the poles), origin (10, -20, 30) mm.
+  const Eigen::Vector3d centre_mm = 1e3 * ct.PointOf(16, 16, 16);
+  CHECK((r.organ_min_mm - (centre_mm - Eigen::Vector3d::Constant(8))).norm() < 1e-9);
+  CHECK((r.organ_max_mm - (centre_mm + Eigen::Vector3d::Constant(8))).norm() < 1e-9);
+  CHECK(r.organ_median_hu == 40.0);  // the chamber is under half the organ
+  REQUIRE(s.internal.size() == 1);
+  CHECK(r.internal_components == 1);
+  CHECK_THAT(r.Describe(), Contains("median 40 HU") && Contains("1 internal structures kept of 1 found"));
+}
+
+TEST_CASE("preop segment: internal structures beyond the largest max_internal_structures are dropped", "[unit]") {
+  // An organ ball of radius 12 with three chambers of 3.5, 3 and 2.5 voxels
+  // (179, 123 and 81 voxels, over 50 mm^3) and four single-voxel specks (under it).
+  std::vector<Blob> blobs = {{{16, 16, 16}, 12, 40.0f}, {{10, 16, 16}, 3.5, 250.0f}, {{22, 16, 16}, 3, 250.0f},
+                             {{16, 9, 16}, 2.5, 250.0f}};
+  for (const Eigen::Vector3d& speck : {Eigen::Vector3d(16, 22, 16), Eigen::Vector3d(16, 16, 10),
+                                       Eigen::Vector3d(16, 16, 22), Eigen::Vector3d(13, 20, 21)}) {
+    blobs.push_back({speck, 0.1, 250.0f});
+  }
+  const io::CtImage ct = BlobsCt(32, blobs);
+  SegmentationOptions options;
+  options.max_internal_structures = 2;
+  const Segmentation s = Segment(ct, options);
+  REQUIRE(s.internal.size() == 2);
+  CHECK((Centroid(s.internal[0]) - Eigen::Vector3d(10, 16, 16)).norm() < 0.1);
+  CHECK((Centroid(s.internal[1]) - Eigen::Vector3d(22, 16, 16)).norm() < 0.1);
+  CHECK(s.report.internal_components == 7);
+  CHECK(s.report.internal_components_dropped == 5);
+  options.max_internal_structures = 0;
+  CHECK(Segment(ct, options).internal.empty());
+}
+
+TEST_CASE("preop segment: the presets are valid options, and an unknown one is named", "[unit]") {
+  for (const std::string& name : SegmentationPresetNames()) {
+    const SegmentationOptions options = SegmentationPreset(name);
+    CHECK(options.preset == name);
+    CHECK(options.Validate() == "");
+  }
+  CHECK(SegmentationPreset("phantom").closing_radius_mm == SegmentationOptions{}.closing_radius_mm);
+  CHECK_FALSE(SegmentationPreset("liver").find_mount);
+  CHECK_FALSE(SegmentationPreset("lung").marker_min_hu.has_value());
+  REQUIRE_THROWS_WITH(SegmentationPreset("brain"), Contains("unknown segmentation preset 'brain'") &&
+                                                       Contains("cardiac-contrast") && Contains("lung"));
+}
+
 TEST_CASE("preop segment: invalid options are refused by name", "[unit]") {
   SegmentationOptions segmentation;
   segmentation.mount_hu = {600, 400};
@@ -139,6 +285,14 @@ TEST_CASE("preop segment: invalid options are refused by name", "[unit]") {
   segmentation = {};
   segmentation.internal_labels = {1};
   CHECK_THAT(segmentation.Validate(), Contains("distinct"));
+  segmentation = {};
+  segmentation.roi_min_m = Eigen::Vector3d::Zero();
+  CHECK_THAT(segmentation.Validate(), Contains("roi_min_m and roi_max_m"));
+  segmentation.roi_max_m = Eigen::Vector3d(1, 1, 0);
+  CHECK_THAT(segmentation.Validate(), Contains("roi_min_m < roi_max_m"));
+  segmentation = {};
+  segmentation.max_internal_structures = -1;
+  CHECK_THAT(segmentation.Validate(), Contains("max_internal_structures"));
   SurfaceOptions surface;
   surface.smoothing_pass_band = 0;
   CHECK_THAT(surface.Validate(), Contains("smoothing_pass_band"));
