@@ -16,7 +16,7 @@ namespace dg::io::gmsh_module {
 
 // Raised whenever a type below or an entry point's signature changes, so a
 // program never calls a module built from other sources.
-inline constexpr int kInterfaceVersion = 1;
+inline constexpr int kInterfaceVersion = 2;
 
 // A solid for Gmsh to mesh, in metres.
 struct Solid {
@@ -38,12 +38,17 @@ struct Solid {
 
 // Meshes `solid`, approaching `target_tets`: the characteristic length is
 // estimated from volume_m3 / target_tets, then corrected from the counts of
-// up to max_passes meshings; the pass nearest the target is kept.
+// up to max_passes meshings; the pass nearest the target is kept. With
+// optimisation_rounds > 0 the pass kept is then optimised that many times
+// more, each round Gmsh's tetrahedral optimiser (edge and face swaps, on the
+// elements of quality under optimisation_threshold) then its node relocation.
 struct MeshRequest {
   Solid solid;
   double volume_m3 = 0;
   int target_tets = 0;
   int max_passes = 0;
+  int optimisation_rounds = 0;
+  double optimisation_threshold = 0.3;  // Gmsh's Mesh.OptimizeThreshold, on its quality "gamma" in (0, 1]
 };
 
 // A named physical group of the mesh: for dimension 3, the tetrahedra of its

@@ -101,6 +101,15 @@ std::string Mesh(const MeshRequest& request, Tetrahedra* out) {
       h *= std::cbrt(count / request.target_tets);
     }
     if (meshed_h != best_h) count_at(best_h);
+    if (request.optimisation_rounds > 0) {
+      session.Run("optimising the tetrahedra", [&] {
+        gmsh::option::setNumber("Mesh.OptimizeThreshold", request.optimisation_threshold);
+        for (int round = 0; round < request.optimisation_rounds; ++round) {
+          gmsh::model::mesh::optimize("", /*force=*/false, /*niter=*/1);
+          gmsh::model::mesh::optimize("Relocate3D", /*force=*/false, /*niter=*/1);
+        }
+      });
+    }
     out->element_size_m = best_h;
     out->count_error = best_error;
     ReadMesh(&session, out);

@@ -1,11 +1,18 @@
 #include "stages/preop/segment/surface_extraction.h"
 
 #include <algorithm>
+#include <cmath>
+#include <map>
+#include <numeric>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include <Eigen/Geometry>
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <vtkCellArray.h>
+#include <vtkDecimatePro.h>
 #include <vtkFlyingEdges3D.h>
 #include <vtkFloatArray.h>
 #include <vtkImageData.h>
@@ -13,59 +20,192 @@
 #include <vtkPointData.h>
 #include <vtkPoints.h>
 #include <vtkPolyData.h>
+#include <vtkPolyDataAlgorithm.h>
+#include <vtkPolyDataConnectivityFilter.h>
 #include <vtkQuadricDecimation.h>
 #include <vtkSmartPointer.h>
 #include <vtkWindowedSincPolyDataFilter.h>
 
 #include "sim/error.h"
+#include "sim/log.h"
 
 namespace dg::stages::preop {
 namespace {
 
+constexpr const char* kWhere = "surface extraction";
+
+// A Gaussian blur of standard deviation sigma along one axis of a dense
+// volume (x fastest), truncated at three sigma; values beyond the volume are 0.
+void BlurAlong(int axis, double sigma, const Eigen::Vector3i& size, std::vector<float>* values) {
+  const int radius = static_cast<int>(std::ceil(3 * sigma));
+  std::vector<double> weights(2 * radius + 1);
+  for (int d = -radius; d <= radius; ++d) weights[d + radius] = std::exp(-0.5 * d * d / (sigma * sigma));
+  const double total = std::accumulate(weights.begin(), weights.end(), 0.0);
+  for (double& w : weights) w /= total;
+  const std::size_t stride = axis == 0 ? 1 : axis == 1 ? size.x() : static_cast<std::size_t>(size.x()) * size.y();
+  const int n = size[axis];
+  std::vector<float> line(n);
+  const std::vector<float> in = *values;
+  for (std::size_t start = 0; start < in.size(); ++start) {
+    if ((start / stride) % n != 0) continue;  // not the first voxel of a line along the axis
+    for (int i = 0; i < n; ++i) {
+      double sum = 0;
+      for (int d = std::max(-radius, -i); d <= std::min(radius, n - 1 - i); ++d) {
+        sum += weights[d + radius] * in[start + (i + d) * stride];
+      }
+      (*values)[start + i * stride] = static_cast<float>(sum);
+    }
+  }
+}
+
 // The mask as a float image in voxel-index coordinates (spacing 1), padded by
-// one empty voxel so that point (i, j, k) of the output is voxel (i, j, k).
-vtkSmartPointer<vtkImageData> PaddedImage(const VoxelMask& mask) {
-  auto image = vtkSmartPointer<vtkImageData>::New();
-  image->SetDimensions(mask.size.x() + 2, mask.size.y() + 2, mask.size.z() + 2);
-  image->SetOrigin(-1, -1, -1);
-  image->SetSpacing(1, 1, 1);
-  image->AllocateScalars(VTK_FLOAT, 1);
-  float* values = static_cast<float*>(image->GetScalarPointer());
-  std::fill(values, values + (mask.size.array() + 2).prod(), 0.0f);
+// `pad` empty voxels so that point (i, j, k) of the output is voxel (i, j, k),
+// blurred by sigma_voxels (0: not at all).
+vtkSmartPointer<vtkImageData> PaddedImage(const VoxelMask& mask, int pad, double sigma_voxels) {
+  const Eigen::Vector3i padded = mask.size.array() + 2 * pad;
+  std::vector<float> values(padded.cast<std::size_t>().prod(), 0.0f);
   for (int k = 0; k < mask.size.z(); ++k) {
     for (int j = 0; j < mask.size.y(); ++j) {
       for (int i = 0; i < mask.size.x(); ++i) {
-        values[(i + 1) + (mask.size.x() + 2) * ((j + 1) + (mask.size.y() + 2) * (k + 1))] =
+        values[(i + pad) + padded.x() * (static_cast<std::size_t>(j + pad) + padded.y() * (k + pad))] =
             mask.inside[mask.Index(i, j, k)];
       }
     }
   }
+  if (sigma_voxels > 0) {
+    for (int axis = 0; axis < 3; ++axis) BlurAlong(axis, sigma_voxels, padded, &values);
+  }
+  auto image = vtkSmartPointer<vtkImageData>::New();
+  image->SetDimensions(padded.x(), padded.y(), padded.z());
+  image->SetOrigin(-pad, -pad, -pad);
+  image->SetSpacing(1, 1, 1);
+  image->AllocateScalars(VTK_FLOAT, 1);
+  std::copy(values.begin(), values.end(), static_cast<float*>(image->GetScalarPointer()));
   return image;
 }
 
+// The polygons' used points mapped to S, renumbered in order of first use.
 io::SurfaceMesh ToSurfaceMesh(vtkPolyData* poly, const VoxelMask& mask) {
-  io::SurfaceMesh surface;
-  surface.vertices_m.resize(3, poly->GetNumberOfPoints());
-  for (vtkIdType p = 0; p < poly->GetNumberOfPoints(); ++p) {
-    double ijk[3];
-    poly->GetPoint(p, ijk);
-    surface.vertices_m.col(p) = mask.PointOf(ijk[0], ijk[1], ijk[2]);
-  }
   vtkCellArray* polys = poly->GetPolys();
+  io::SurfaceMesh surface;
   surface.triangles.resize(3, polys->GetNumberOfCells());
+  std::vector<int> new_id(poly->GetNumberOfPoints(), -1);
+  std::vector<vtkIdType> used;
   vtkIdType n = 0;
   const vtkIdType* ids = nullptr;
   int t = 0;
   for (polys->InitTraversal(); polys->GetNextCell(n, ids); ++t) {
-    DG_CHECK(n == 3);  // flying edges and quadric decimation make triangles only
-    for (int c = 0; c < 3; ++c) surface.triangles(c, t) = static_cast<int>(ids[c]);
+    DG_CHECK(n == 3);  // flying edges and both decimations make triangles only
+    for (int c = 0; c < 3; ++c) {
+      if (new_id[ids[c]] < 0) new_id[ids[c]] = static_cast<int>(used.size()), used.push_back(ids[c]);
+      surface.triangles(c, t) = new_id[ids[c]];
+    }
+  }
+  surface.vertices_m.resize(3, static_cast<Eigen::Index>(used.size()));
+  for (std::size_t v = 0; v < used.size(); ++v) {
+    double ijk[3];
+    poly->GetPoint(used[v], ijk);
+    surface.vertices_m.col(v) = mask.PointOf(ijk[0], ijk[1], ijk[2]);
   }
   return surface;
+}
+
+// One way of making the surface; ExtractSurface tries several in turn.
+struct Attempt {
+  double sigma_voxels = 0;
+  bool preserve_topology = false;  // vtkDecimatePro instead of quadric edge collapse
+};
+
+std::vector<Attempt> Attempts(const SurfaceOptions& options) {
+  std::vector<Attempt> attempts;
+  std::vector<double> sigmas{options.image_smoothing_sigma_voxels};
+  for (double extra : kExtraBlursVoxels) sigmas.push_back(options.image_smoothing_sigma_voxels + extra);
+  for (double sigma : sigmas) {
+    attempts.push_back({sigma, false});
+    attempts.push_back({sigma, true});
+  }
+  return attempts;
+}
+
+struct Made {
+  io::SurfaceMesh surface;
+  int extracted_triangles = 0;
+};
+
+Made MakeSurface(const VoxelMask& mask, const SurfaceOptions& options, const Attempt& attempt) {
+  // Three standard deviations of empty padding: the blur of a mask that
+  // touches the grid's edge still falls to 0 inside the padded image.
+  const int pad = 1 + static_cast<int>(std::ceil(3 * attempt.sigma_voxels));
+  vtkSmartPointer<vtkImageData> image = PaddedImage(mask, pad, attempt.sigma_voxels);
+
+  vtkNew<vtkFlyingEdges3D> flying_edges;
+  flying_edges->SetInputData(image);
+  flying_edges->SetValue(0, 0.5);
+  flying_edges->ComputeNormalsOff();
+  flying_edges->ComputeGradientsOff();
+  flying_edges->ComputeScalarsOff();
+
+  // The outer surface of the largest piece: noise and cavities (whose
+  // surfaces are separate regions) are dropped, as the solid assumes
+  // (docs/preop.md, "What we assume").
+  vtkNew<vtkPolyDataConnectivityFilter> largest;
+  largest->SetInputConnection(flying_edges->GetOutputPort());
+  largest->SetExtractionModeToLargestRegion();
+  largest->Update();
+  const vtkIdType extracted = largest->GetOutput()->GetNumberOfPolys();
+  if (extracted == 0) {
+    throw Error(fmt::format("no surface at the mask's half level after a blur of {:g} voxels: the mask's {} voxels "
+                            "are too thin or too few",
+                            attempt.sigma_voxels, mask.Count()),
+                kWhere, "check the mask (a label that only a few voxels carry?), or blur it less");
+  }
+
+  vtkNew<vtkWindowedSincPolyDataFilter> smoother;
+  smoother->SetInputConnection(largest->GetOutputPort());
+  smoother->SetNumberOfIterations(options.smoothing_iterations);
+  smoother->SetPassBand(options.smoothing_pass_band);
+  smoother->NormalizeCoordinatesOn();  // the pass band's scale does not depend on the grid's size
+  smoother->FeatureEdgeSmoothingOff();
+  smoother->BoundarySmoothingOff();
+  smoother->NonManifoldSmoothingOn();
+
+  const double reduction = std::max(0.0, 1.0 - static_cast<double>(options.target_triangles) / extracted);
+  vtkSmartPointer<vtkPolyDataAlgorithm> decimation;
+  if (attempt.preserve_topology) {
+    auto pro = vtkSmartPointer<vtkDecimatePro>::New();
+    pro->SetTargetReduction(reduction);
+    pro->PreserveTopologyOn();
+    pro->SplittingOff();
+    pro->BoundaryVertexDeletionOff();
+    decimation = pro;
+  } else {
+    auto quadric = vtkSmartPointer<vtkQuadricDecimation>::New();
+    quadric->SetTargetReduction(reduction);
+    quadric->VolumePreservationOn();
+    decimation = quadric;
+  }
+  decimation->SetInputConnection(smoother->GetOutputPort());
+  decimation->Update();
+
+  Made made{ToSurfaceMesh(decimation->GetOutput(), mask), static_cast<int>(extracted)};
+  // Flying edges winds its triangles by the image's axes; a mirroring
+  // direction (determinant -1) turns them inside out.
+  if (SixEnclosedVolume(made.surface) < 0) made.surface.triangles.row(1).swap(made.surface.triangles.row(2));
+  return made;
+}
+
+// Union-find over vertex ids, for the surface's components.
+int Find(std::vector<int>& parent, int a) {
+  while (parent[a] != a) a = parent[a] = parent[parent[a]];
+  return a;
 }
 
 }  // namespace
 
 std::string SurfaceOptions::Validate() const {
+  if (!(image_smoothing_sigma_voxels >= 0 && image_smoothing_sigma_voxels <= 10)) {
+    return fmt::format("image_smoothing_sigma_voxels must lie in [0, 10], got {:g}", image_smoothing_sigma_voxels);
+  }
   if (smoothing_iterations < 0) return fmt::format("smoothing_iterations must be >= 0, got {}", smoothing_iterations);
   if (!(smoothing_pass_band > 0 && smoothing_pass_band <= 2)) {
     return fmt::format("smoothing_pass_band must lie in (0, 2], got {:g}", smoothing_pass_band);
@@ -84,49 +224,127 @@ double SixEnclosedVolume(const io::SurfaceMesh& surface) {
   return six_volume;
 }
 
+bool SurfaceTopology::IsClosedManifoldSphere() const {
+  return triangles > 0 && boundary_edges == 0 && non_manifold_edges == 0 && misoriented_edges == 0 &&
+         non_manifold_vertices == 0 && components == 1 && euler_characteristic == 2;
+}
+
+std::string SurfaceTopology::Describe() const {
+  if (IsClosedManifoldSphere()) return fmt::format("closed manifold of genus 0, {} triangles", triangles);
+  std::vector<std::string> faults;
+  if (triangles == 0) faults.push_back("no triangle");
+  if (boundary_edges) faults.push_back(fmt::format("{} boundary edges (holes)", boundary_edges));
+  if (non_manifold_edges) faults.push_back(fmt::format("{} edges in three triangles or more", non_manifold_edges));
+  if (misoriented_edges) faults.push_back(fmt::format("{} edges between inconsistently oriented triangles",
+                                                      misoriented_edges));
+  if (non_manifold_vertices) faults.push_back(fmt::format("{} vertices where parts touch", non_manifold_vertices));
+  if (components != 1) faults.push_back(fmt::format("{} components", components));
+  if (faults.empty() || euler_characteristic != 2) {
+    faults.push_back(fmt::format("Euler characteristic {} (2 for a sphere; {} tunnels if closed)",
+                                 euler_characteristic, std::max(0, (2 - euler_characteristic) / 2)));
+  }
+  std::string text = fmt::format("{}", fmt::join(faults, ", "));
+  if (has_fault_location) {
+    text += fmt::format("; one at ({:.1f}, {:.1f}, {:.1f}) mm", 1e3 * first_fault_m.x(), 1e3 * first_fault_m.y(),
+                        1e3 * first_fault_m.z());
+  }
+  return text;
+}
+
+SurfaceTopology CheckSurfaceTopology(const io::SurfaceMesh& surface) {
+  SurfaceTopology topology;
+  topology.triangles = surface.num_triangles();
+  const auto& f = surface.triangles;
+  auto note_fault = [&](const Eigen::Vector3d& x_m) {
+    if (!topology.has_fault_location) topology.first_fault_m = x_m, topology.has_fault_location = true;
+  };
+
+  // Each undirected edge: how many triangles run along it a -> b (a < b) and b -> a.
+  std::map<std::pair<int, int>, std::pair<int, int>> runs;
+  std::vector<int> parent(surface.num_vertices());
+  std::iota(parent.begin(), parent.end(), 0);
+  std::vector<bool> used(surface.num_vertices(), false);
+  for (int t = 0; t < f.cols(); ++t) {
+    for (int c = 0; c < 3; ++c) {
+      const int a = f(c, t), b = f((c + 1) % 3, t);
+      auto& [forward, backward] = runs[std::minmax(a, b)];
+      ++(a < b ? forward : backward);
+      used[a] = true;
+      parent[Find(parent, a)] = Find(parent, b);
+    }
+  }
+  topology.edges = static_cast<int>(runs.size());
+  for (const auto& [edge, count] : runs) {
+    const auto [forward, backward] = count;
+    const Eigen::Vector3d midpoint_m = 0.5 * (surface.vertices_m.col(edge.first) + surface.vertices_m.col(edge.second));
+    if (forward + backward == 1) {
+      ++topology.boundary_edges, note_fault(midpoint_m);
+    } else if (forward + backward > 2) {
+      ++topology.non_manifold_edges, note_fault(midpoint_m);
+    } else if (forward != 1) {
+      ++topology.misoriented_edges, note_fault(midpoint_m);
+    }
+  }
+
+  // Around a manifold vertex the triangles (v, a, b) chain a -> b into one cycle.
+  std::vector<std::vector<std::pair<int, int>>> fans(surface.num_vertices());
+  for (int t = 0; t < f.cols(); ++t) {
+    for (int c = 0; c < 3; ++c) fans[f(c, t)].emplace_back(f((c + 1) % 3, t), f((c + 2) % 3, t));
+  }
+  for (int v = 0; v < surface.num_vertices(); ++v) {
+    if (!used[v]) continue;
+    ++topology.vertices;
+    if (Find(parent, v) == v) ++topology.components;
+    std::map<int, int> next(fans[v].begin(), fans[v].end());
+    if (next.size() != fans[v].size()) continue;  // an edge fault, counted above
+    int cycle = 1;
+    for (int a = next.begin()->second; a != next.begin()->first && cycle <= static_cast<int>(next.size()); ++cycle) {
+      const auto it = next.find(a);
+      if (it == next.end()) break;
+      a = it->second;
+    }
+    if (cycle != static_cast<int>(next.size())) {
+      ++topology.non_manifold_vertices, note_fault(surface.vertices_m.col(v));
+    }
+  }
+  topology.euler_characteristic = topology.vertices - topology.edges + topology.triangles;
+  return topology;
+}
+
 io::SurfaceMesh ExtractSurface(const VoxelMask& mask, const SurfaceOptions& options, SurfaceReport* report) {
   if (std::string problem = options.Validate(); !problem.empty()) {
-    throw Error("invalid surface options: " + problem, "surface extraction", "correct the option");
+    throw Error("invalid surface options: " + problem, kWhere, "correct the option");
   }
   if (mask.Count() == 0) {
-    throw Error("the mask is empty: there is no surface to extract", "surface extraction",
+    throw Error("the mask is empty: there is no surface to extract", kWhere,
                 "check the segmentation that made the mask");
   }
-
-  vtkNew<vtkFlyingEdges3D> flying_edges;
-  flying_edges->SetInputData(PaddedImage(mask));
-  flying_edges->SetValue(0, 0.5);
-  flying_edges->ComputeNormalsOff();
-  flying_edges->ComputeGradientsOff();
-  flying_edges->ComputeScalarsOff();
-  flying_edges->Update();
-  const vtkIdType extracted = flying_edges->GetOutput()->GetNumberOfPolys();
-
-  vtkNew<vtkWindowedSincPolyDataFilter> smoother;
-  smoother->SetInputConnection(flying_edges->GetOutputPort());
-  smoother->SetNumberOfIterations(options.smoothing_iterations);
-  smoother->SetPassBand(options.smoothing_pass_band);
-  smoother->NormalizeCoordinatesOn();  // the pass band's scale does not depend on the grid's size
-  smoother->FeatureEdgeSmoothingOff();
-  smoother->BoundarySmoothingOff();
-  smoother->NonManifoldSmoothingOn();
-
-  vtkNew<vtkQuadricDecimation> decimation;
-  decimation->SetInputConnection(smoother->GetOutputPort());
-  decimation->SetTargetReduction(std::max(0.0, 1.0 - static_cast<double>(options.target_triangles) / extracted));
-  decimation->VolumePreservationOn();
-  decimation->Update();
-
-  io::SurfaceMesh surface = ToSurfaceMesh(decimation->GetOutput(), mask);
-  // Flying edges winds its triangles by the image's axes; a mirroring
-  // direction (determinant -1) turns them inside out.
-  double six_volume = SixEnclosedVolume(surface);
-  if (six_volume < 0) {
-    surface.triangles.row(1).swap(surface.triangles.row(2));
-    six_volume = -six_volume;
+  std::string failures;
+  int attempts = 0;
+  for (const Attempt& attempt : Attempts(options)) {
+    ++attempts;
+    Made made = MakeSurface(mask, options, attempt);
+    const SurfaceTopology topology = CheckSurfaceTopology(made.surface);
+    const std::string how = fmt::format("blur {:g} voxels, {} decimation", attempt.sigma_voxels,
+                                        attempt.preserve_topology ? "topology-preserving" : "quadric");
+    if (!topology.IsClosedManifoldSphere()) {
+      failures += fmt::format("\n  {}: {}", how, topology.Describe());
+      continue;
+    }
+    if (attempts > 1) Logger("stages").info("{}: surface made with {} after:{}", kWhere, how, failures);
+    if (report) {
+      *report = {made.extracted_triangles, made.surface.num_triangles(), SixEnclosedVolume(made.surface) / 6,
+                 attempts, attempt.sigma_voxels, attempt.preserve_topology};
+    }
+    return std::move(made.surface);
   }
-  if (report) *report = {static_cast<int>(extracted), surface.num_triangles(), six_volume / 6};
-  return surface;
+  throw Error(fmt::format("the mask's surface ({} voxels) is not the boundary of one solid ball, "
+                          "which the mesher needs, in any of {} attempts:{}",
+                          mask.Count(), attempts, failures),
+              kWhere,
+              fmt::format("blur the mask more (image_smoothing_sigma_voxels, now {:g}) or ask for another triangle "
+                          "count (--triangles, now {}); tunnels through the organ must be filled in the mask",
+                          options.image_smoothing_sigma_voxels, options.target_triangles));
 }
 
 }  // namespace dg::stages::preop

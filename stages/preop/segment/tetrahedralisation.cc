@@ -1,9 +1,10 @@
 #include "stages/preop/segment/tetrahedralisation.h"
 
 #include <algorithm>
-#include <cmath>
-#include <exception>
+#include <array>
 #include <map>
+#include <cmath>
+#include <iterator>
 #include <numbers>
 #include <string>
 #include <utility>
@@ -23,22 +24,92 @@ namespace {
 
 constexpr const char* kWhere = "tetrahedralisation of the segmented surface";
 
-// Throws unless every edge is shared by exactly two triangles.
-void RequireClosed(const io::SurfaceMesh& surface) {
-  std::map<std::pair<int, int>, int> uses;
-  for (int t = 0; t < surface.num_triangles(); ++t) {
-    for (int c = 0; c < 3; ++c) {
-      const int a = surface.triangles(c, t), b = surface.triangles((c + 1) % 3, t);
-      ++uses[std::minmax(a, b)];
+// Throws unless the surface bounds one solid ball: Gmsh's reparametrisation
+// of the patches fails on anything else, with a message no user can act on.
+void RequireClosedManifold(const io::SurfaceMesh& surface, const std::string& name, const std::string& where) {
+  const SurfaceTopology topology = CheckSurfaceTopology(surface);
+  if (topology.IsClosedManifoldSphere()) return;
+  throw Error(fmt::format("{} ({} triangles) is not the boundary of one solid ball: {}", name,
+                          surface.num_triangles(), topology.Describe()),
+              where,
+              "if it was extracted from a mask, extract it again with more smoothing (image_smoothing_sigma_voxels) "
+              "or another --triangles; a surface file must be one closed, consistently oriented surface without "
+              "tunnels (repair it in MeshLab or 3D Slicer)");
+}
+
+// The mesh's elements against the quality bound.
+struct Quality {
+  double min_radius_ratio = HUGE_VAL;
+  double mean_radius_ratio = 0;
+  int worst_element = -1;
+  int under_bound = 0;
+};
+
+Quality MeasureQuality(const sim::TetMesh& mesh, double bound) {
+  Quality quality;
+  for (int e = 0; e < mesh.num_tets(); ++e) {
+    const double q = io::RadiusRatio(mesh, e);
+    if (q < quality.min_radius_ratio) quality.min_radius_ratio = q, quality.worst_element = e;
+    quality.mean_radius_ratio += q / mesh.num_tets();
+    quality.under_bound += q < bound;
+  }
+  return quality;
+}
+
+// Removes the elements under the bound that have two or three faces on the
+// boundary, while that leaves the boundary a closed 2-manifold: Gmsh leaves
+// such slivers flat along the surface's sharp curves (a label cut by the
+// grid's first slice has a rim), and its optimiser cannot move their nodes,
+// which all lie on the surface. Each one removed takes its volume, a few
+// cubic micrometres, off the solid. Returns how many were removed.
+int PeelBoundarySlivers(double bound, sim::TetMesh* mesh) {
+  using Face = std::array<int, 3>;
+  auto face_of = [&](int e, int skip) {
+    Face face;
+    for (int c = 0, n = 0; c < 4; ++c) if (c != skip) face[n++] = mesh->tets(c, e);
+    std::sort(face.begin(), face.end());
+    return face;
+  };
+  int removed = 0;
+  for (bool changed = true; changed;) {
+    changed = false;
+    std::map<Face, int> uses;
+    std::map<std::pair<int, int>, int> boundary_edge_uses;
+    for (int e = 0; e < mesh->num_tets(); ++e) for (int c = 0; c < 4; ++c) ++uses[face_of(e, c)];
+    for (const auto& [face, count] : uses) {
+      if (count != 1) continue;
+      for (int c = 0; c < 3; ++c) ++boundary_edge_uses[std::minmax(face[c], face[(c + 1) % 3])];
+    }
+    std::vector<bool> on_boundary(mesh->num_nodes(), false);
+    for (const auto& [edge, count] : boundary_edge_uses) on_boundary[edge.first] = on_boundary[edge.second] = true;
+    for (int e = 0; e < mesh->num_tets() && !changed; ++e) {
+      if (io::RadiusRatio(*mesh, e) >= bound) continue;
+      std::vector<int> inner;  // the corners opposite the faces inside the solid
+      for (int c = 0; c < 4; ++c) if (uses[face_of(e, c)] == 2) inner.push_back(c);
+      bool keeps_manifold = false;
+      if (inner.size() == 2) {
+        // The inner faces share the edge of the two corners opposite the
+        // boundary faces; it must not lie on the boundary already.
+        std::vector<int> edge;
+        for (int c = 0; c < 4; ++c) if (c != inner[0] && c != inner[1]) edge.push_back(mesh->tets(c, e));
+        keeps_manifold = !boundary_edge_uses.count(std::minmax(edge[0], edge[1]));
+      } else if (inner.size() == 1) {
+        // The corner where three boundary faces meet leaves the solid with the element.
+        keeps_manifold = true;
+      }
+      if (!keeps_manifold) continue;
+      mesh->tets.col(e) = mesh->tets.col(mesh->num_tets() - 1);
+      mesh->tets.conservativeResize(Eigen::NoChange, mesh->num_tets() - 1);
+      ++removed, changed = true;
     }
   }
-  for (const auto& [edge, count] : uses) {
-    if (count != 2) {
-      throw Error(fmt::format("the surface is not closed: edge ({}, {}) belongs to {} triangles", edge.first,
-                              edge.second, count),
-                  kWhere, "extract the surface from a mask with ExtractSurface, which gives a closed surface");
-    }
-  }
+  if (removed > 0) sim::RemoveUnusedNodes(mesh);
+  return removed;
+}
+
+Eigen::Vector3d Centroid(const sim::TetMesh& mesh, int e) {
+  return 0.25 * (mesh.X_m.col(mesh.tets(0, e)) + mesh.X_m.col(mesh.tets(1, e)) + mesh.X_m.col(mesh.tets(2, e)) +
+                 mesh.X_m.col(mesh.tets(3, e)));
 }
 
 // Whether point x_S lies within distance_m of a voxel of the mask, each voxel
@@ -114,6 +185,9 @@ std::string TetrahedralisationOptions::Validate() const {
   if (!(base_distance_m >= 0 && std::isfinite(base_distance_m))) {
     return fmt::format("base_distance_m must be finite and >= 0, got {:g}", base_distance_m);
   }
+  if (!(min_radius_ratio >= 0 && min_radius_ratio < 1)) {
+    return fmt::format("min_radius_ratio must lie in [0, 1), got {:g}", min_radius_ratio);
+  }
   return "";
 }
 
@@ -122,10 +196,11 @@ sim::TetMesh Tetrahedralise(const io::SurfaceMesh& surface, const VoxelMask& mou
   if (std::string problem = options.Validate(); !problem.empty()) {
     throw Error("invalid tetrahedralisation options: " + problem, kWhere, "correct the option");
   }
-  RequireClosed(surface);
+  const std::string where = fmt::format("tetrahedralisation of {}", options.surface_name);
+  RequireClosedManifold(surface, options.surface_name, where);
   const double enclosed_m3 = SixEnclosedVolume(surface) / 6;
   if (!(enclosed_m3 > 0)) {
-    throw Error(fmt::format("the surface encloses a volume of {:g} m^3", enclosed_m3), kWhere,
+    throw Error(fmt::format("{} encloses a volume of {:g} m^3", options.surface_name, enclosed_m3), where,
                 "orient the triangles counter-clockwise seen from outside (ExtractSurface does)");
   }
 
@@ -137,10 +212,50 @@ sim::TetMesh Tetrahedralise(const io::SurfaceMesh& surface, const VoxelMask& mou
   request.volume_m3 = enclosed_m3;
   request.target_tets = options.target_tets;
   request.max_passes = kMaxMeshingPasses;
-  io::GmshMeshing meshing = io::MeshInGmsh(
-      request, kWhere, "check that the surface is one closed, non-self-intersecting shell; try another target count");
-  sim::TetMesh& mesh = meshing.mesh;
+  const std::string gmsh_fix =
+      fmt::format("extract the surface again with more smoothing (image_smoothing_sigma_voxels) or another "
+                  "--triangles, or ask for another --tets (now {}); Gmsh needs one closed surface that does not "
+                  "cut itself",
+                  options.target_tets);
+  io::GmshMeshing meshing = io::MeshInGmsh(request, where, gmsh_fix);
   TetrahedralisationReport r;
+  r.min_radius_ratio_meshed = MeasureQuality(meshing.mesh, options.min_radius_ratio).min_radius_ratio;
+  r.slivers_removed = PeelBoundarySlivers(options.min_radius_ratio, &meshing.mesh);
+  Quality quality = MeasureQuality(meshing.mesh, options.min_radius_ratio);
+  for (const Remeshing& remeshing : kRemeshings) {
+    if (quality.min_radius_ratio >= options.min_radius_ratio) break;
+    // Gmsh's optimiser works on the elements under its threshold: aim above
+    // the bound so that the elements near it improve too.
+    request.optimisation_rounds = remeshing.optimisation_rounds;
+    request.optimisation_threshold = std::min(1.0, 2 * options.min_radius_ratio);
+    request.target_tets = std::max(1, static_cast<int>(std::lround(remeshing.target_scale * options.target_tets)));
+    io::GmshMeshing remeshed = io::MeshInGmsh(request, where, gmsh_fix);
+    const int peeled = PeelBoundarySlivers(options.min_radius_ratio, &remeshed.mesh);
+    const Quality remeshed_quality = MeasureQuality(remeshed.mesh, options.min_radius_ratio);
+    Logger("stages").info("{}: worst radius ratio {:.3f} with {} more rounds of Gmsh's optimiser, {:g} x the target "
+                          "(was {:.3f})",
+                          where, remeshed_quality.min_radius_ratio, remeshing.optimisation_rounds,
+                          remeshing.target_scale, quality.min_radius_ratio);
+    if (remeshed_quality.min_radius_ratio > quality.min_radius_ratio) {
+      meshing = std::move(remeshed), quality = remeshed_quality;
+      r.optimisation_rounds = remeshing.optimisation_rounds, r.target_scale = remeshing.target_scale;
+      r.slivers_removed = peeled;
+    }
+  }
+  sim::TetMesh& mesh = meshing.mesh;
+  if (quality.min_radius_ratio < options.min_radius_ratio) {
+    const Eigen::Vector3d worst_mm = 1e3 * Centroid(mesh, quality.worst_element);
+    throw Error(fmt::format("the mesh of {} has {} of its {} tetrahedra under the radius ratio {:g}, the worst "
+                            "{:.3f} at ({:.1f}, {:.1f}, {:.1f}) mm, after {} remeshings with up to {} more rounds of Gmsh's "
+                            "optimiser",
+                            options.surface_name, quality.under_bound, mesh.num_tets(), options.min_radius_ratio,
+                            quality.min_radius_ratio, worst_mm.x(), worst_mm.y(), worst_mm.z(),
+                            std::size(kRemeshings), kRemeshings[1].optimisation_rounds),
+                where,
+                fmt::format("ask for another --tets (now {}) or --triangles, or smooth the surface more: slivers "
+                            "sit where the surface has detail finer than the elements",
+                            options.target_tets));
+  }
   r.element_size_m = meshing.element_size_m;
   r.passes = meshing.passes;
   AddNodeSets(mount, options.base_distance_m, &mesh);
@@ -149,19 +264,17 @@ sim::TetMesh Tetrahedralise(const io::SurfaceMesh& surface, const VoxelMask& mou
   r.tets = mesh.num_tets();
   r.surface_nodes = static_cast<int>(mesh.node_sets["surface"].size());
   r.base_nodes = static_cast<int>(mesh.node_sets["base"].size());
-  r.min_radius_ratio = HUGE_VAL;
-  for (int e = 0; e < mesh.num_tets(); ++e) {
-    const double q = io::RadiusRatio(mesh, e);
-    r.min_radius_ratio = std::min(r.min_radius_ratio, q);
-    r.mean_radius_ratio += q / mesh.num_tets();
-    r.volume_m3 += sim::SixSignedVolume(mesh, e) / 6;
-  }
-  Logger("stages").info("tetrahedralised the surface ({} triangles): {} nodes ({} on the free surface, {} on the "
-                        "mount), {} tets (target {}, h = {:.3g} mm, {} passes), radius ratio min {:.3f} mean {:.3f}",
-                        surface.num_triangles(), r.nodes, r.surface_nodes, r.base_nodes, r.tets, options.target_tets,
-                        1e3 * r.element_size_m, r.passes, r.min_radius_ratio, r.mean_radius_ratio);
+  r.min_radius_ratio = quality.min_radius_ratio;
+  r.mean_radius_ratio = quality.mean_radius_ratio;
+  for (int e = 0; e < mesh.num_tets(); ++e) r.volume_m3 += sim::SixSignedVolume(mesh, e) / 6;
+  Logger("stages").info("tetrahedralised {} ({} triangles): {} nodes ({} on the free surface, {} on the mount), {} "
+                        "tets (target {}, h = {:.3g} mm, {} passes), radius ratio min {:.3f} (meshed {:.3f}, {} "
+                        "boundary slivers removed, {} more optimiser rounds) mean {:.3f}",
+                        options.surface_name, surface.num_triangles(), r.nodes, r.surface_nodes, r.base_nodes, r.tets,
+                        options.target_tets, 1e3 * r.element_size_m, r.passes, r.min_radius_ratio,
+                        r.min_radius_ratio_meshed, r.slivers_removed, r.optimisation_rounds, r.mean_radius_ratio);
   if (std::abs(static_cast<double>(r.tets) / options.target_tets - 1) > kTetCountTolerance) {
-    Logger("stages").warn("{}: got {} tets, more than {:.0f}% off the target {}", kWhere, r.tets,
+    Logger("stages").warn("{}: got {} tets, more than {:.0f}% off the target {}", where, r.tets,
                           100 * kTetCountTolerance, options.target_tets);
   }
   if (report) *report = r;
