@@ -11,6 +11,7 @@
 #include "tools/phantom/beat_options.h"
 #include "tools/phantom/phantom_generator.h"
 #include "tools/phantom/phantom_spec.h"
+#include "tools/phantom/real_ct_phantom.h"
 
 namespace dg::tools {
 namespace {
@@ -25,9 +26,35 @@ struct PhantomArguments {
   std::string size, codec, ct_format;
   phantom::BeatOptions beat;
   bool quiet = false;
+  // A phantom from a real CT (--ct): phantom::RealCtPhantomOptions.
+  std::string ct, labels, motion = "cardiac";
+  int organ_label = 0;
+  double amplitude_mm = 4, period_s = 0;
 };
 
+// `--ct`: the real CT warped by a known motion (docs/commands/phantom.md, "A phantom from a real CT").
+void RunRealCtPhantom(const PhantomArguments& args) {
+  phantom::RealCtPhantomOptions options;
+  options.ct = args.ct;
+  options.labels = args.labels;
+  options.organ_label = args.organ_label;
+  options.out_dir = args.out_dir;
+  options.motion = args.motion == "respiratory" ? phantom::RealCtMotion::Kind::kRespiratory
+                                                : phantom::RealCtMotion::Kind::kCardiac;
+  if (args.phases > 0) options.phases = args.phases;
+  options.amplitude_mm = args.amplitude_mm;
+  options.period_s = args.period_s;
+  options.seed = args.seed;
+  if (!args.ct_format.empty()) options.ct_format = args.ct_format;
+  options.progress = !args.quiet;
+  const phantom::RealCtPhantomSummary summary = phantom::GenerateRealCtPhantom(options);
+  std::fputs(summary.Describe().c_str(), stdout);
+}
+
 void RunPhantomCommand(const PhantomArguments& args) {
+  const int threads = args.threads > 0 ? args.threads : tbb::info::default_concurrency();
+  tbb::global_control parallelism(tbb::global_control::max_allowed_parallelism, threads);
+  if (!args.ct.empty()) return RunRealCtPhantom(args);
   phantom::PhantomSpec spec = phantom::PresetSpec(args.preset);
   spec.seed = args.seed;
   if (args.heart_rate_bpm > 0) spec.heart_rate_bpm = args.heart_rate_bpm;
@@ -51,10 +78,40 @@ void RunPhantomCommand(const PhantomArguments& args) {
     spec.width = std::stoi(match[1]);
     spec.height = std::stoi(match[2]);
   }
-  const int threads = args.threads > 0 ? args.threads : tbb::info::default_concurrency();
-  tbb::global_control parallelism(tbb::global_control::max_allowed_parallelism, threads);
   const phantom::PhantomSummary summary = phantom::GeneratePhantom(spec, args.out_dir, !args.quiet);
   std::fputs(summary.Describe().c_str(), stdout);
+}
+
+// The options of a phantom from a real CT; the synthetic scene's own options exclude --ct.
+void AddRealCtOptions(CLI::App* command, PhantomArguments* args) {
+  CLI::Option* ct = command->add_option(
+      "--ct", args->ct,
+      "Instead of the synthetic heart, warp this real CT (a NIfTI, NRRD or MetaImage file, or a DICOM series' "
+      "folder) by a known motion into a 4D CT with its true displacement fields");
+  command->add_option("--labels", args->labels,
+                      "With --ct: its label map (same grid), copied to OUT/labels.nii.gz; the motion centres on it")
+      ->needs(ct);
+  command->add_option("--organ-label", args->organ_label,
+                      "With --labels: the label the motion centres on (default 0: every non-zero label)")
+      ->needs(ct);
+  command->add_option("--motion", args->motion,
+                      "With --ct: cardiac (contraction and twist) or respiratory (superior-inferior translation "
+                      "and anterior-posterior expansion)")
+      ->check(CLI::IsMember({"cardiac", "respiratory"}))
+      ->capture_default_str()
+      ->needs(ct);
+  command->add_option("--amplitude-mm", args->amplitude_mm, "With --ct: the largest displacement, mm")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str()
+      ->needs(ct);
+  command->add_option("--period-s", args->period_s,
+                      "With --ct: one cycle, seconds, for the trigger times (default: 1 cardiac, 4 respiratory)")
+      ->check(CLI::PositiveNumber)
+      ->needs(ct);
+  for (const char* synthetic_only : {"--preset", "--heart-rate", "--tets", "--duration", "--size", "--fps",
+                                     "--fiducials", "--baseline", "--distance", "--noise", "--codec", "--voxel"}) {
+    ct->excludes(command->get_option(synthetic_only));
+  }
 }
 
 }  // namespace
@@ -88,6 +145,7 @@ void AddPhantomCommand(CLI::App& app) {
   command->add_option("--voxel", args->voxel_m, "CT voxel size, metres (preset: 0.001)");
   command->add_option("--threads", args->threads, "Worker threads (default: all cores)")->check(CLI::PositiveNumber);
   command->add_flag("--quiet", args->quiet, "No progress lines");
+  AddRealCtOptions(command, args.get());
   command->callback([args] { RunPhantomCommand(*args); });
 }
 
