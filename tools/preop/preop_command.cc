@@ -1,5 +1,6 @@
 // `dynaguide preop`: a 4D CT to a scene's preoperative part.
 #include <cstdio>
+#include <optional>
 
 #include <CLI/CLI.hpp>
 #include <tbb/global_control.h>
@@ -7,6 +8,7 @@
 
 #include "sim/error.h"
 #include "tools/commands.h"
+#include "stages/preop/segment/segmentation_presets.h"
 #include "tools/preop/preop_job.h"
 
 namespace dg::tools {
@@ -14,7 +16,10 @@ namespace {
 
 struct PreopArguments {
   preop::PreopOptions options;
-  std::vector<double> organ_hu, internal_hu, mount_hu, bead_size_mm, roi_mm;
+  std::vector<double> organ_hu, internal_hu, mount_hu, bead_size_mm, roi_mm, seed_point_mm, intensity_scale;
+  std::string preset;
+  std::optional<int> max_internal;
+  bool not_hu = false;
   int threads = 0;
   bool quiet = false;
 };
@@ -25,6 +30,29 @@ stages::preop::HuRange Range(const std::vector<double>& bounds, stages::preop::H
 
 void RunPreopCommand(PreopArguments& args) {
   preop::PreopOptions& options = args.options;
+  if (!args.preset.empty()) {
+    // The label-map options are not the preset's: keep what was given.
+    const stages::preop::SegmentationOptions given = options.segmentation;
+    options.segmentation = stages::preop::SegmentationPreset(args.preset);
+    options.segmentation.organ_label = given.organ_label;
+    options.segmentation.mount_label = given.mount_label;
+    options.segmentation.internal_labels = given.internal_labels;
+  }
+  if (args.max_internal) options.segmentation.max_internal_structures = *args.max_internal;
+  if (args.not_hu && !args.intensity_scale.empty()) {
+    throw Error("--not-hu and --intensity-scale both given", "dynaguide preop",
+                "give --intensity-scale when you know how the values map to HU, else --not-hu with --labels");
+  }
+  if (args.not_hu) options.intensity = io::CtIntensity::kNotHu;
+  if (!args.intensity_scale.empty()) {
+    options.intensity = io::CtIntensity::kScale;
+    options.intensity_slope = args.intensity_scale[0];
+    options.intensity_intercept = args.intensity_scale[1];
+  }
+  if (!args.seed_point_mm.empty()) {
+    options.segmentation.seed_point_m =
+        1e-3 * Eigen::Vector3d(args.seed_point_mm[0], args.seed_point_mm[1], args.seed_point_mm[2]);
+  }
   options.segmentation.organ_hu = Range(args.organ_hu, options.segmentation.organ_hu);
   options.segmentation.internal_hu = Range(args.internal_hu, options.segmentation.internal_hu);
   options.segmentation.mount_hu = Range(args.mount_hu, options.segmentation.mount_hu);
@@ -39,6 +67,8 @@ void RunPreopCommand(PreopArguments& args) {
       throw Error("--roi must be XMIN YMIN ZMIN XMAX YMAX ZMAX with each min at most its max", "--roi",
                   "give the box's two corners in mm, in the CT's LPS frame (as 3D Slicer shows it with LPS)");
     }
+    options.segmentation.roi_min_m = options.beads.roi_min_m;
+    options.segmentation.roi_max_m = options.beads.roi_max_m;
   }
   options.progress = !args.quiet;
   const int threads = args.threads > 0 ? args.threads : tbb::info::default_concurrency();
@@ -73,12 +103,28 @@ void AddPreopCommand(CLI::App& app) {
       ->capture_default_str();
   command->add_option("--internal-labels", o.segmentation.internal_labels,
                       "Internal structures' labels in --labels, each one embedded mesh");
-  command->add_option("--organ-hu", args->organ_hu, "Automatic: the organ's HU range MIN MAX (default -480 375)")
+  command->add_option("--preset", args->preset,
+                      "Automatic segmentation's settings for the scan: phantom (default), cardiac-contrast, chest, "
+                      "abdomen, liver, lung; --organ-hu, --internal-hu and --mount-hu override its ranges")
+      ->check(CLI::IsMember(stages::preop::SegmentationPresetNames()));
+  command->add_option("--seed-point", args->seed_point_mm,
+                      "Automatic: a point inside the organ, X Y Z mm in the CT's frame (LPS); its component is the "
+                      "organ instead of the largest one")
+      ->expected(3);
+  command->add_option("--max-internal", args->max_internal,
+                      "Automatic: internal structures kept, largest first (default: the preset's; phantom 8)");
+  command->add_option("--intensity-scale", args->intensity_scale,
+                      "The CT's values are not HU: SLOPE INTERCEPT such that HU = SLOPE * value + INTERCEPT")
+      ->expected(2);
+  command->add_flag("--not-hu", args->not_hu,
+                    "Take the CT's values as stored, unchecked (an image that is not CT in HU); automatic "
+                    "segmentation then needs HU and is refused: give --labels");
+  command->add_option("--organ-hu", args->organ_hu, "Automatic: the organ's HU range MIN MAX (default: the preset's; phantom -480 375)")
       ->expected(2);
   command->add_option("--internal-hu", args->internal_hu,
-                      "Automatic: internal structures' HU range MIN MAX (default 145 375)")
+                      "Automatic: internal structures' HU range MIN MAX (default: the preset's; phantom 145 375)")
       ->expected(2);
-  command->add_option("--mount-hu", args->mount_hu, "Automatic: the mount's HU range MIN MAX (default 375 1750)")
+  command->add_option("--mount-hu", args->mount_hu, "Automatic: the mount's HU range MIN MAX (default: the preset's; phantom 375 1750)")
       ->expected(2);
   command->add_option("--roi", args->roi_mm,
                       "A box in the CT's frame (LPS, mm): XMIN YMIN ZMIN XMAX YMAX ZMAX; beads and the organ are "

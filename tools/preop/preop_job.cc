@@ -18,6 +18,7 @@
 #include "io/metaimage.h"
 #include "io/scene.h"
 #include "io/surface_mesh.h"
+#include "stages/preop/segment/label_image_writer.h"
 #include "sim/error.h"
 #include "sim/log.h"
 #include "sim/stability.h"
@@ -73,39 +74,12 @@ std::vector<stages::preop::PhaseDeformation> RegisterPhasesAtOnce(const std::vec
   return deformations;
 }
 
-// The mesh's stability limit at the like scene's material and time step (the
-// defaults without one). With a like scene, a mesh whose limit is below what
-// `run` needs is refused here, before the registrations and before a scene is
-// written that run would refuse.
-MeshStability CheckStability(const sim::TetMesh& mesh, const std::string& like_scene) {
-  sim::Material material;
-  double dt_s = io::Scene::Simulation{}.dt_s;
-  if (!like_scene.empty()) {
-    const io::Scene like = io::ReadScene(like_scene);
-    material = like.material;
-    if (like.simulation) dt_s = like.simulation->dt_s;
-  }
-  std::vector<int> fixed_dofs;
-  if (const auto base = mesh.node_sets.find("base"); base != mesh.node_sets.end()) {
-    for (int a : base->second) {
-      for (int i = 0; i < 3; ++i) fixed_dofs.push_back(3 * a + i);
-    }
-  }
-  const sim::StabilityReport report = sim::EstimateStability(mesh, material, fixed_dofs);
-  MeshStability stability{.dt_critical_s = report.dt_critical_s,
-                          .dt_s = dt_s,
-                          .safety = sim::DefaultStabilitySafety(material.poissons_ratio),
-                          .limit = report.Describe()};
-  if (const std::string excess = report.TimeStepExcess(dt_s, stability.safety); !excess.empty()) {
-    if (like_scene.empty()) {
-      Logger("tools").warn("the mesh needs a smaller time step than the default: {}", excess);
-    } else {
-      throw Error("the mesh is not stable at the scene's time step: " + excess, mesh.source,
-                  "mesh with fewer tetrahedra (--tets) or a smoother surface (--triangles), so that no element is "
-                  "much smaller than the rest; `dynaguide run` would refuse this scene");
-    }
-  }
-  return stability;
+// The material and time step the scene will be simulated with: the like
+// scene's, else the defaults.
+std::pair<sim::Material, double> SceneMaterialAndStep(const std::string& like_scene) {
+  if (like_scene.empty()) return {sim::Material{}, io::Scene::Simulation{}.dt_s};
+  const io::Scene like = io::ReadScene(like_scene);
+  return {like.material, like.simulation ? like.simulation->dt_s : io::Scene::Simulation{}.dt_s};
 }
 
 double PeakRssGb() {
@@ -216,6 +190,8 @@ std::string PreopSummary::Describe() const {
                 ct_size.x(), ct_size.y(), ct_size.z(), 1e3 * ct_spacing_m.x(), 1e3 * ct_spacing_m.y(),
                 1e3 * ct_spacing_m.z());
   text << line;
+  if (!ct_reoriented_from.empty()) text << "  put on the scan frame's axes from " << ct_reoriented_from << "\n";
+  text << "segmentation: " << segmentation.Describe() << "\n";
   std::snprintf(line, sizeof line, "mesh: %d nodes, %d tetrahedra, worst radius ratio %.3f, %d base nodes\n",
                 mesh.nodes, mesh.tets, mesh.min_radius_ratio, mesh.base_nodes);
   text << line;
@@ -246,6 +222,47 @@ std::string PreopSummary::Describe() const {
   return text.str();
 }
 
+MeshStability EstimateMeshStability(const sim::TetMesh& mesh, const sim::Material& material, double dt_s) {
+  std::vector<int> fixed_dofs;
+  if (const auto base = mesh.node_sets.find("base"); base != mesh.node_sets.end()) {
+    for (int a : base->second) {
+      for (int i = 0; i < 3; ++i) fixed_dofs.push_back(3 * a + i);
+    }
+  }
+  const sim::StabilityReport report = sim::EstimateStability(mesh, material, fixed_dofs);
+  const double safety = sim::DefaultStabilitySafety(material.poissons_ratio);
+  return {.dt_critical_s = report.dt_critical_s,
+          .dt_s = dt_s,
+          .safety = safety,
+          .limit = report.Describe(),
+          .excess = report.TimeStepExcess(dt_s, safety)};
+}
+
+sim::TetMesh MeshForScene(const io::SurfaceMesh& surface, const stages::preop::VoxelMask& mount,
+                          stages::preop::TetrahedralisationOptions options, const sim::Material& material, double dt_s,
+                          stages::preop::TetrahedralisationReport* report, MeshStability* stability) {
+  sim::TetMesh mesh = stages::preop::Tetrahedralise(surface, mount, options, report);
+  *stability = EstimateMeshStability(mesh, material, dt_s);
+  for (int attempt = 0; attempt < kStabilityRemeshings && !stability->excess.empty(); ++attempt) {
+    // The stable step scales with the elements' size, size with count^(-1/3).
+    const double short_by = dt_s / (stability->safety * stability->dt_critical_s);
+    options.target_tets = static_cast<int>(options.target_tets * std::min(0.9, std::pow(short_by, -3.0)));
+    Logger("tools").info("the mesh of {} tetrahedra allows steps of {:.3f} ms, under the scene's {:.3f} ms: meshing "
+                         "again at {} tetrahedra",
+                         mesh.num_tets(), 1e3 * stability->safety * stability->dt_critical_s, 1e3 * dt_s,
+                         options.target_tets);
+    stages::preop::TetrahedralisationReport coarser_report;
+    sim::TetMesh coarser = stages::preop::Tetrahedralise(surface, mount, options, &coarser_report);
+    const MeshStability coarser_stability = EstimateMeshStability(coarser, material, dt_s);
+    if (coarser_stability.dt_critical_s > stability->dt_critical_s) {  // else keep the better one, and go coarser
+      mesh = std::move(coarser);
+      *report = coarser_report;
+      *stability = coarser_stability;
+    }
+  }
+  return mesh;
+}
+
 PreopSummary RunPreop(const PreopOptions& options) {
   if (const std::string problem = options.Validate(); !problem.empty()) {
     throw Error("invalid preop options: " + problem, "dynaguide preop", "correct the option");
@@ -260,6 +277,9 @@ PreopSummary RunPreop(const PreopOptions& options) {
 
     io::CtReadOptions reading;
     reading.series_uids = options.series_uids;
+    reading.intensity = options.intensity;
+    reading.intensity_slope = options.intensity_slope;
+    reading.intensity_intercept = options.intensity_intercept;
     reading.progress = [&](const io::CtImage& phase, int index, int count) {
       if (options.progress) std::fprintf(stderr, "preop:   phase %d of %d: %s\n", index + 1, count, phase.source.c_str());
     };
@@ -268,6 +288,7 @@ PreopSummary RunPreop(const PreopOptions& options) {
     summary.phases = static_cast<int>(phases.size());
     summary.ct_size = phases.front().size;
     summary.ct_spacing_m = phases.front().spacing_m;
+    summary.ct_reoriented_from = phases.front().reoriented_from;
     if (phases.size() < 2) {
       throw Error("the CT has one phase", options.ct_inputs.front(),
                   "give every phase of the 4D CT (a series per phase, or a file per phase)");
@@ -288,14 +309,25 @@ PreopSummary RunPreop(const PreopOptions& options) {
       return stages::preop::Segment(phases.front(), io::ReadLabelMap(options.label_map), options.segmentation);
     });
     summary.segmentation = segmentation.report;
+    steps.Run("writing the segmentation", [&] { stages::preop::WriteLabelImage(segmentation, out + "/segmentation.nii.gz"); });
 
     const io::SurfaceMesh surface = steps.Run("surface and decimation", [&] {
       return stages::preop::ExtractSurface(segmentation.organ, options.surface, &summary.surface);
     });
 
     const sim::TetMesh mesh = steps.Run("tetrahedralisation", [&] {
-      sim::TetMesh tets = stages::preop::Tetrahedralise(surface, segmentation.mount, options.mesh, &summary.mesh);
+      const auto [material, dt_s] = SceneMaterialAndStep(options.like_scene);
+      sim::TetMesh tets =
+          MeshForScene(surface, segmentation.mount, options.mesh, material, dt_s, &summary.mesh, &summary.stability);
       tets.source = out + "/mesh.msh";
+      if (!summary.stability.excess.empty()) {
+        if (!options.like_scene.empty()) {
+          throw Error("the mesh is not stable at the scene's time step: " + summary.stability.excess, tets.source,
+                      "mesh with fewer tetrahedra (--tets) or a smoother surface (--triangles), so that no element "
+                      "is much smaller than the rest; `dynaguide run` would refuse this scene");
+        }
+        Logger("tools").warn("the mesh needs a smaller time step than the default: {}", summary.stability.excess);
+      }
       io::WriteMsh(tets, out + "/mesh.msh", 41);
       return tets;
     });
@@ -303,7 +335,6 @@ PreopSummary RunPreop(const PreopOptions& options) {
       Logger("tools").warn("no mesh node touches the mount: the simulation has no fixed nodes and needs its "
                            "surface constraints to hold the organ (check the mount's HU range or label)");
     }
-    summary.stability = steps.Run("stability limit", [&] { return CheckStability(mesh, options.like_scene); });
 
     // The fiducials before the registrations: a wrong bead count is found in
     // seconds, not after every phase is registered.

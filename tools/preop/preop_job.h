@@ -5,10 +5,13 @@
 
 #include <Eigen/Core>
 
+#include "io/ct/ct_reader.h"
 #include "stages/preop/motion/motion_registration.h"
 #include "stages/preop/segment/segmentation.h"
 #include "stages/preop/segment/surface_extraction.h"
 #include "stages/preop/segment/tetrahedralisation.h"
+#include "sim/material.h"
+#include "sim/tet_mesh.h"
 #include "stages/register/bead_detection.h"
 
 namespace dg::tools::preop {
@@ -19,6 +22,8 @@ namespace dg::tools::preop {
 struct PreopOptions {
   std::vector<std::string> ct_inputs;  // a DICOM folder of every phase, a folder per phase, or a file per phase
   std::vector<std::string> series_uids;  // phases chosen by SeriesInstanceUID, in cycle order
+  io::CtIntensity intensity = io::CtIntensity::kHu;  // what the CT's values are (io::CtReadOptions)
+  double intensity_slope = 1, intensity_intercept = 0;  // with kScale: HU = slope * value + intercept
   std::string out_dir;
   std::string label_map;      // a segmentation on phase 0's grid; empty: automatic
   std::string annotation;     // an image laid on the organ's surface for the texture overlay; empty: none
@@ -62,12 +67,35 @@ struct MeshStability {
   double dt_s = 0;           // the scene's time step
   double safety = 0;         // the fraction of dt_critical_s a step may take (sim::DefaultStabilitySafety)
   std::string limit;         // where the limit is set (sim::StabilityReport::Describe)
+  std::string excess;        // empty when dt_s <= safety * dt_critical_s, else what `run` would refuse
 };
+
+// The stability limit `dynaguide run` checks a scene's mesh against (its
+// base nodes fixed), at a material and time step.
+// @throws dg::Error for an invalid material or mesh.
+MeshStability EstimateMeshStability(const sim::TetMesh& mesh, const sim::Material& material, double dt_s);
+
+// Meshings at fewer tetrahedra tried when the first mesh's stable step is
+// under the scene's.
+inline constexpr int kStabilityRemeshings = 3;
+
+// The organ's mesh for a scene simulated at this material and time step
+// (docs/preop.md, "The mesh's stability limit"): stages::preop::Tetrahedralise,
+// and when its stable step is under dt_s, meshed again at fewer tetrahedra
+// (the count scaled by the cube of the shortfall, at least 10% fewer), up to
+// kStabilityRemeshings times, keeping the most stable. `stability` says the
+// limit of the mesh returned; its `excess` is not empty when even that one is
+// under dt_s.
+// @throws dg::Error as Tetrahedralise.
+sim::TetMesh MeshForScene(const io::SurfaceMesh& surface, const stages::preop::VoxelMask& mount,
+                          stages::preop::TetrahedralisationOptions options, const sim::Material& material, double dt_s,
+                          stages::preop::TetrahedralisationReport* report, MeshStability* stability);
 
 struct PreopSummary {
   int phases = 0;
   Eigen::Vector3i ct_size = Eigen::Vector3i::Zero();
   Eigen::Vector3d ct_spacing_m = Eigen::Vector3d::Zero();
+  std::string ct_reoriented_from;  // io::CtImage::reoriented_from of the phases: "" when on S's axes as read
   stages::preop::SegmentationReport segmentation;
   stages::preop::SurfaceReport surface;
   stages::preop::TetrahedralisationReport mesh;

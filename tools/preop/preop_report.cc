@@ -41,12 +41,17 @@ void PreopReportFile::Write(const PreopSummary& summary, bool complete, const st
   json["steps"] = steps;
   json["ct"] = {{"phases", summary.phases},
                 {"size", {summary.ct_size.x(), summary.ct_size.y(), summary.ct_size.z()}},
-                {"spacing_mm", vector(summary.ct_spacing_m, 1e3)}};
+                {"spacing_mm", vector(summary.ct_spacing_m, 1e3)},
+                {"reoriented_from", summary.ct_reoriented_from}};
   const auto& seg = summary.segmentation;
   json["segmentation"] = {{"organ_voxels", seg.organ_voxels},
                           {"mount_voxels", seg.mount_voxels},
                           {"internal_structures", seg.internal_voxels.size()},
-                          {"organ_voxels_dropped", seg.organ_voxels_dropped}};
+                          {"organ_voxels_dropped", seg.organ_voxels_dropped},
+                          {"organ_volume_ml", figure(seg.organ_volume_ml)},
+                          {"organ_box_mm", {vector(seg.organ_min_mm, 1), vector(seg.organ_max_mm, 1)}},
+                          {"organ_median_hu", figure(seg.organ_median_hu)},
+                          {"label_image", "segmentation.nii.gz"}};
   json["surface"] = {{"extracted_triangles", summary.surface.extracted_triangles},
                      {"triangles", summary.surface.triangles}};
   const auto& mesh = summary.mesh;
@@ -56,6 +61,8 @@ void PreopReportFile::Write(const PreopSummary& summary, bool complete, const st
                   {"base_nodes", mesh.base_nodes},
                   {"volume_mm3", figure(1e9 * mesh.volume_m3)},
                   {"min_radius_ratio", figure(mesh.min_radius_ratio)},
+                  {"min_radius_ratio_meshed", figure(mesh.min_radius_ratio_meshed)},
+                  {"optimisation_rounds", mesh.optimisation_rounds},
                   {"mean_radius_ratio", figure(mesh.mean_radius_ratio)}};
   json["stability"] = {{"dt_critical_ms", figure(1e3 * summary.stability.dt_critical_s)},
                        {"dt_ms", figure(1e3 * summary.stability.dt_s)},

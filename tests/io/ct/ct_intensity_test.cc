@@ -14,13 +14,14 @@
 #include "io/ct/ct_reader.h"
 #include "io/metaimage.h"
 #include "tests/support/temporary_folder.h"
+#include "tests/support/real_data.h"
 
 namespace dg::io {
 namespace {
 
 using Catch::Matchers::Contains;
 
-const std::string kAbdomen = "/work/shared/data/real/03_ct_abdomen_totalseg/";
+std::string Abdomen(const std::string& file) { return dg::testing::RealData("03_ct_abdomen_totalseg/" + file); }
 // Debian's python3-nibabel test images (nibabel/tests/data/README.rst).
 const std::string kNibabelData = "/usr/lib/python3/dist-packages/nibabel/tests/data/";
 
@@ -40,13 +41,13 @@ std::string Refusal(const std::function<void()>& read, const std::string& file) 
 
 TEST_CASE("ct intensity: real CTs in HU are accepted", "[integration]") {
   // The data README.txt: a Siemens abdominal CT, DICOM (-1024..1839 HU) and NIfTI (-1207..3382 HU).
-  for (const std::string& path : {kAbdomen + "dicom_raw", kAbdomen + "ct_abdomen_3mm_30slices.nii.gz"}) {
+  for (const std::string& path : {Abdomen("dicom_raw"), Abdomen("ct_abdomen_3mm_30slices.nii.gz")}) {
     INFO(path);
     const CtImage ct = ReadCtImage(path);
     REQUIRE(ct.values_are_hu);
     REQUIRE(*std::min_element(ct.values.begin(), ct.values.end()) < -1000);
   }
-  REQUIRE(ReadCtImage(kAbdomen + "dicom_raw").modality == "CT");
+  REQUIRE(ReadCtImage(Abdomen("dicom_raw")).modality == "CT");
 }
 
 TEST_CASE("ct intensity: an 8-bit image and an MR image are refused, or taken as they are with --not-hu",
@@ -71,7 +72,7 @@ TEST_CASE("ct intensity: a real CT stored without its rescale is refused, and re
   const testing::TemporaryFolder temporary("dg_ct_intensity");
   // The real CT's stored values (HU + 1024, as its DICOM stores them: RescaleIntercept -1024), written
   // where no reader applies the rescale.
-  const CtImage hu = ReadCtImage(kAbdomen + "dicom_raw");
+  const CtImage hu = ReadCtImage(Abdomen("dicom_raw"));
   VolumeI16 stored;
   stored.size = hu.size;
   stored.spacing_m = hu.spacing_m;

@@ -21,6 +21,7 @@
 #include "sim/log.h"
 #include "tests/io/ct/ct_fixtures.h"
 #include "tests/support/temporary_folder.h"
+#include "tests/support/real_data.h"
 
 namespace dg::io {
 namespace {
@@ -28,7 +29,7 @@ namespace {
 using Catch::Matchers::Contains;
 using Catch::Matchers::WithinAbs;
 
-const std::string kAbdomen = "/work/shared/data/real/03_ct_abdomen_totalseg/";
+std::string Abdomen(const std::string& file) { return dg::testing::RealData("03_ct_abdomen_totalseg/" + file); }
 
 // Writes a CtImage through ITK as int16 (HU) or uint8 (labels), in millimetres.
 template <typename T>
@@ -149,7 +150,7 @@ TEST_CASE("ct orientation: a CT written in other orientations reads to the same 
 TEST_CASE("ct orientation: a real RAS NIfTI reads to the voxels nibabel puts at the same physical points",
           "[integration]") {
   // TotalSegmentator's example_ct_sm.nii.gz (data README.txt): 122 x 101 x 30, 3 mm, RAS, int16 HU.
-  const CtImage ct = ReadCtImage(kAbdomen + "ct_abdomen_3mm_30slices.nii.gz");
+  const CtImage ct = ReadCtImage(Abdomen("ct_abdomen_3mm_30slices.nii.gz"));
   REQUIRE(ct.reoriented_from == "RAS");
   REQUIRE(ct.size == Eigen::Vector3i(122, 101, 30));
   REQUIRE(ct.direction == Eigen::Matrix3d::Identity());
@@ -180,8 +181,8 @@ TEST_CASE("ct orientation: a real TotalSegmentator label map (LAS NIfTI) lands o
           "[integration]") {
   // The data README.txt: dicom_raw/ is 20 slices of a Siemens abdominal CT (LPS), and
   // labels_totalseg_for_dicom.nii.gz its TotalSegmentator label map, 512 x 512 x 20, stored LAS.
-  const CtImage ct = ReadCtImage(kAbdomen + "dicom_raw");
-  const CtImage labels = ReadLabelMap(kAbdomen + "labels_totalseg_for_dicom.nii.gz");
+  const CtImage ct = ReadCtImage(Abdomen("dicom_raw"));
+  const CtImage labels = ReadLabelMap(Abdomen("labels_totalseg_for_dicom.nii.gz"));
   REQUIRE(ct.reoriented_from.empty());
   REQUIRE(labels.reoriented_from == "LAS");
   REQUIRE(!labels.values_are_hu);
