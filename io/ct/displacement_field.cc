@@ -23,9 +23,17 @@ using VectorImage = itk::Image<itk::Vector<float, 3>, 3>;
 
 }  // namespace
 
+namespace {
+constexpr double kSlack = 1e-9;  // a point on the last grid plane, up to rounding
+}  // namespace
+
+bool DisplacementField::Contains(const Eigen::Vector3d& X_S_m) const {
+  const Eigen::Vector3d c = (direction * spacing_m.asDiagonal()).inverse() * (X_S_m - origin_m);
+  return (c.array() >= -kSlack).all() && (c.array() <= size.cast<double>().array() - 1 + kSlack).all();
+}
+
 Eigen::Vector3d DisplacementField::SampleMm(const Eigen::Vector3d& X_S_m) const {
   const Eigen::Vector3d c = (direction * spacing_m.asDiagonal()).inverse() * (X_S_m - origin_m);
-  constexpr double kSlack = 1e-9;  // a point on the last grid plane, up to rounding
   for (int a = 0; a < 3; ++a) {
     if (!(c[a] >= -kSlack && c[a] <= size[a] - 1 + kSlack)) {
       char where[96];

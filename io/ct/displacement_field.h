@@ -28,6 +28,8 @@ struct DisplacementField {
   Eigen::Vector3d PointOf(int i, int j, int k) const {
     return origin_m + direction * spacing_m.cwiseProduct(Eigen::Vector3d(i, j, k));
   }
+  // Whether X lies within the grid's bounding points, where SampleMm samples.
+  bool Contains(const Eigen::Vector3d& X_S_m) const;
   // u at X by trilinear interpolation of the grid points around it, mm.
   // @throws dg::Error when X lies outside the grid's bounding points.
   Eigen::Vector3d SampleMm(const Eigen::Vector3d& X_S_m) const;

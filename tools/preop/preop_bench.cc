@@ -2,6 +2,7 @@
 
 #include <cstdio>
 #include <filesystem>
+#include <limits>
 #include <sstream>
 
 #include <nlohmann/json.hpp>
@@ -32,8 +33,13 @@ PreopMotionErrors EvaluatePreopMotion(const std::string& out_dir, const std::str
     std::snprintf(name, sizeof name, "truth/dvf_phase_%02zu.mha", k);
     const io::DisplacementField truth = io::ReadDisplacementField((fs::path(phantom_dir) / name).string());
     for (size_t a = 0; a < N; ++a) {
+      const Eigen::Map<const Eigen::Vector3d> X_m(&nodes[3 * a]);
+      if (!truth.Contains(X_m)) {  // an organ cut by the field of view: its surface lies beyond the last voxel centres
+        if (k == 1) ++errors.nodes_outside_truth;
+        continue;
+      }
       const Eigen::Vector3d recovered = 1e3 * Eigen::Map<const Eigen::Vector3d>(&displacement[3 * (k * N + a)]);
-      const double error = (recovered - truth.SampleMm(Eigen::Map<const Eigen::Vector3d>(&nodes[3 * a]))).norm();
+      const double error = (recovered - truth.SampleMm(X_m)).norm();
       sum += error;
       ++count;
       errors.node_error_max_mm = std::max(errors.node_error_max_mm, error);
@@ -41,7 +47,13 @@ PreopMotionErrors EvaluatePreopMotion(const std::string& out_dir, const std::str
   }
   errors.node_error_mean_mm = count ? sum / count : 0;
 
-  const stages::FiducialMotion truth = stages::ReadFiducialMotion((fs::path(phantom_dir) / "scan.h5").string());
+  // A phantom warped from a real CT (phantom --ct) has no fiducials, nor a scan without beads.
+  const fs::path truth_scan = fs::path(phantom_dir) / "scan.h5";
+  if (!fs::exists(truth_scan) || !scan.Has("/phases/fiducials_deformed_S_m")) {
+    errors.fiducial_deformed_mean_mm = errors.fiducial_found_mean_mm = std::numeric_limits<double>::quiet_NaN();
+    return errors;
+  }
+  const stages::FiducialMotion truth = stages::ReadFiducialMotion(truth_scan.string());
   const std::vector<double> deformed = scan.Read<double>("/phases/fiducials_deformed_S_m", &shape);
   const stages::FiducialMotion found = stages::ReadFiducialMotion(out_dir + "/scan.h5");
   const size_t F = shape[1];

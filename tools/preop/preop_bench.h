@@ -13,13 +13,16 @@ namespace dg::tools::preop {
 // fiducials against the phantom's true per-phase fiducials).
 // A preop scene's motion against a phantom's truth.
 struct PreopMotionErrors {
-  double node_error_mean_mm = 0, node_error_max_mm = 0;   // over every node of every phase
+  double node_error_mean_mm = 0, node_error_max_mm = 0;   // over every node of every phase the truth covers
+  int nodes_outside_truth = 0;                              // beyond the truth fields' grid points: not measured
   double fiducial_deformed_mean_mm = 0;                     // deformed phase-0 fiducials against the truth's
   double fiducial_found_mean_mm = 0;                        // beads found in the CT against the truth's
 };
 
 // Reads out_dir/scan.h5 (as RunPreop writes it) and the phantom's
-// truth/dvf_phase_NN.mha and scan.h5. @throws dg::Error for a missing file.
+// truth/dvf_phase_NN.mha and scan.h5; the fiducial errors are NaN when
+// either scan has no fiducials (a phantom warped from a real CT has none).
+// @throws dg::Error for a missing file.
 PreopMotionErrors EvaluatePreopMotion(const std::string& out_dir, const std::string& phantom_dir);
 
 struct PreopBenchRecord {

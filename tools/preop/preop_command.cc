@@ -144,6 +144,10 @@ void AddPreopCommand(CLI::App& app) {
   command->add_option("--tets", o.mesh.target_tets, "Target tetrahedron count")->capture_default_str();
   command->add_option("--triangles", o.surface.target_triangles, "Decimated surface's triangle count")
       ->capture_default_str();
+  command->add_option("--smoothing-voxels", o.surface.image_smoothing_sigma_voxels,
+                      "Gaussian blur of the organ's mask before its surface is extracted, voxels (standard deviation); "
+                      "more is tried by itself when the surface cannot be meshed")
+      ->capture_default_str();
   command->add_option("--grid-mm", o.motion.grid_spacing_mm, "B-spline control-point spacing at the finest level, mm")
       ->capture_default_str();
   command->add_option("--levels", o.motion.levels, "B-spline registration levels, coarse to fine")->capture_default_str();

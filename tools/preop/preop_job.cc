@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <sstream>
 
+#include <fmt/format.h>
 #include <opencv2/imgcodecs.hpp>
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
@@ -89,6 +90,10 @@ double PeakRssGb() {
 }
 
 using Clock = std::chrono::steady_clock;
+
+// Fewer beads than this are not fiducials: the registration's rigid pose
+// needs three.
+constexpr size_t kMinBeads = 3;
 
 // A bead farther than this from a like scene's fiducial is not that fiducial.
 constexpr double kMaxFiducialMatch_m = 3e-3;
@@ -311,26 +316,38 @@ PreopSummary RunPreop(const PreopOptions& options) {
     summary.segmentation = segmentation.report;
     steps.Run("writing the segmentation", [&] { stages::preop::WriteLabelImage(segmentation, out + "/segmentation.nii.gz"); });
 
-    const io::SurfaceMesh surface = steps.Run("surface and decimation", [&] {
-      return stages::preop::ExtractSurface(segmentation.organ, options.surface, &summary.surface);
-    });
-
-    const sim::TetMesh mesh = steps.Run("tetrahedralisation", [&] {
+    // The surface's smoothing and the mesh are one step: a closed manifold
+    // surface can still cut itself or carry detail finer than the elements,
+    // which only Gmsh finds; it is then extracted again from a smoother mask.
+    io::SurfaceMesh surface;
+    const sim::TetMesh mesh = steps.Run("surface and tetrahedralisation", [&] {
       const auto [material, dt_s] = SceneMaterialAndStep(options.like_scene);
-      sim::TetMesh tets =
-          MeshForScene(surface, segmentation.mount, options.mesh, material, dt_s, &summary.mesh, &summary.stability);
-      tets.source = out + "/mesh.msh";
-      if (!summary.stability.excess.empty()) {
-        if (!options.like_scene.empty()) {
-          throw Error("the mesh is not stable at the scene's time step: " + summary.stability.excess, tets.source,
-                      "mesh with fewer tetrahedra (--tets) or a smoother surface (--triangles), so that no element "
-                      "is much smaller than the rest; `dynaguide run` would refuse this scene");
+      stages::preop::SurfaceOptions smoothing = options.surface;
+      for (size_t attempt = 0;; ++attempt) {
+        surface = stages::preop::ExtractSurface(segmentation.organ, smoothing, &summary.surface);
+        try {
+          sim::TetMesh tets = MeshForScene(surface, segmentation.mount, options.mesh, material, dt_s, &summary.mesh,
+                                           &summary.stability);
+          tets.source = out + "/mesh.msh";
+          return tets;
+        } catch (const stages::preop::UnmeshableSurface& e) {
+          if (attempt == std::size(kExtraSmoothingVoxels)) throw;
+          smoothing.image_smoothing_sigma_voxels =
+              summary.surface.image_smoothing_sigma_voxels + kExtraSmoothingVoxels[attempt];
+          Logger("tools").warn("{}; extracting the surface again from the mask blurred by {:g} voxels", e.problem(),
+                               smoothing.image_smoothing_sigma_voxels);
         }
-        Logger("tools").warn("the mesh needs a smaller time step than the default: {}", summary.stability.excess);
       }
-      io::WriteMsh(tets, out + "/mesh.msh", 41);
-      return tets;
     });
+    if (!summary.stability.excess.empty()) {
+      if (!options.like_scene.empty()) {
+        throw Error("the mesh is not stable at the scene's time step: " + summary.stability.excess, mesh.source,
+                    "mesh with fewer tetrahedra (--tets) or a smoother surface (--triangles, --smoothing-voxels), so "
+                    "that no element is much smaller than the rest; `dynaguide run` would refuse this scene");
+      }
+      Logger("tools").warn("the mesh needs a smaller time step than the default: {}", summary.stability.excess);
+    }
+    steps.Run("writing the mesh", [&] { io::WriteMsh(mesh, mesh.source, 41); });
     if (summary.mesh.base_nodes == 0) {
       Logger("tools").warn("no mesh node touches the mount: the simulation has no fixed nodes and needs its "
                            "surface constraints to hold the organ (check the mount's HU range or label)");
@@ -345,6 +362,17 @@ PreopSummary RunPreop(const PreopOptions& options) {
         summary.fiducial_source = FiducialSource::kFile;
       } else {
         const std::vector<std::vector<Eigen::Vector3d>> found = stages::DetectBeadsInPhases(ct_files, options.beads);
+        if (!found.front().empty() && found.front().size() < kMinBeads) {
+          // Too few to register with (a rigid pose needs three): not markers but bone, calcium or metal.
+          std::string where;
+          for (const Eigen::Vector3d& bead : found.front()) where += fmt::format(" ({:.1f}, {:.1f}, {:.1f})", 1e3 * bead.x(), 1e3 * bead.y(), 1e3 * bead.z());
+          Logger("tools").warn("{} bead-like objects {} at{} mm: fewer than the {} a registration needs, so not taken "
+                               "as fiducials",
+                               found.front().size(), options.beads.Describe(), where, kMinBeads);
+          beads = stages::MatchBeadsAcrossPhases(std::vector<std::vector<Eigen::Vector3d>>(found.size()), ct_files,
+                                                 options.beads);  // none
+          return;
+        }
         beads = stages::MatchBeadsAcrossPhases(found, ct_files, options.beads);
         summary.fiducial_source = found.front().empty() ? FiducialSource::kNone : FiducialSource::kBeads;
       }
@@ -411,9 +439,11 @@ PreopSummary RunPreop(const PreopOptions& options) {
       } else {
         io::WriteObj(out + "/assets/surface.obj", organ);
       }
+      stages::preop::SurfaceOptions drawn = options.surface;
+      drawn.require_solid_ball = false;  // drawn, not meshed: vessels may branch and loop
       for (size_t s = 0; s < segmentation.internal.size(); ++s) {
         io::WriteObj(out + "/assets/internal_" + std::to_string(s) + ".obj",
-                     stages::preop::ExtractSurface(segmentation.internal[s], options.surface));
+                     stages::preop::ExtractSurface(segmentation.internal[s], drawn));
       }
     });
 

@@ -75,6 +75,11 @@ struct MeshStability {
 // @throws dg::Error for an invalid material or mesh.
 MeshStability EstimateMeshStability(const sim::TetMesh& mesh, const sim::Material& material, double dt_s);
 
+// The extra blurs of the organ's mask, in voxels beyond the last surface's,
+// tried in turn when Gmsh cannot mesh a surface or reach the radius ratio
+// (stages::preop::UnmeshableSurface).
+inline constexpr double kExtraSmoothingVoxels[] = {1.0, 2.0};
+
 // Meshings at fewer tetrahedra tried when the first mesh's stable step is
 // under the scene's.
 inline constexpr int kStabilityRemeshings = 3;

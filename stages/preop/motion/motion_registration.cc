@@ -649,15 +649,23 @@ Eigen::Matrix3Xd PhaseDeformation::Displacements(const Eigen::Matrix3Xd& points_
   const Eigen::Matrix3d to_index = (grid.direction * grid.spacing_m.asDiagonal()).inverse();
   for (Eigen::Index i = 0; i < points_S_m.cols(); ++i) {
     const Eigen::Vector3d index = to_index * (points_S_m.col(i) - grid.origin_m);
-    // The spline is defined over the voxels' centres; half a voxel beyond them
-    // it is still the fitted polynomial, beyond that it is not.
-    if ((index.array() < -0.5).any() || (index.array() > grid.size.cast<double>().array() - 0.5).any()) {
+    // The spline is defined over the voxels' centres and half a voxel beyond
+    // them (the image's extent). An organ cut by the field of view has its
+    // surface there, and smoothing moves some of it a little further out:
+    // up to kOutsideReach_voxels beyond, a point takes the displacement of the
+    // nearest point of the extent; farther out it is refused.
+    constexpr double kEdge = 0.5, kOutsideReach_voxels = 1.0;
+    const Eigen::Array3d last = grid.size.cast<double>().array() - 1;
+    if ((index.array() < -kEdge - kOutsideReach_voxels).any() ||
+        (index.array() > last + kEdge + kOutsideReach_voxels).any()) {
       std::ostringstream what;
       what << "point " << i << " at " << points_S_m.col(i).transpose() << " m lies outside the CT's grid";
       throw Error(what.str(), grid.source, "give points inside the phase-0 image (the mesh segmented from it)");
     }
+    const Eigen::Vector3d within = index.array().max(-kEdge + 1e-9).min(last + kEdge - 1e-9).matrix();
+    const Eigen::Vector3d point_m = grid.origin_m + grid.direction * grid.spacing_m.cwiseProduct(within);
     BSpline::InputPointType X;
-    for (unsigned d = 0; d < kDim; ++d) X[d] = points_S_m(d, i) * kMmPerM;
+    for (unsigned d = 0; d < kDim; ++d) X[d] = point_m[d] * kMmPerM;
     const BSpline::OutputPointType x = spline_->transform->TransformPoint(X);
     for (unsigned d = 0; d < kDim; ++d) u(d, i) = (x[d] - X[d]) / kMmPerM;
   }

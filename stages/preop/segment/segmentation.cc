@@ -371,9 +371,11 @@ Eigen::Vector3i VoxelOf(const io::CtImage& ct, const Eigen::Vector3d& x_m) {
   return index.array().round().cast<int>();
 }
 
-// The label of the candidate component that holds the seed point.
+// The label of the candidate component that holds the seed point, or the
+// nearest one when the point's voxel was removed by the opening (within its
+// radius and half a voxel).
 // @throws dg::Error when the point lies outside the grid or the region, or
-//   in no candidate component, naming the nearest component.
+//   farther from every candidate component, naming the nearest one.
 std::uint32_t SeedLabel(const io::CtImage& ct, const Box& box, const Components& candidates,
                         const SegmentationOptions& options) {
   const Eigen::Vector3d seed_m = *options.seed_point_m;
@@ -408,6 +410,16 @@ std::uint32_t SeedLabel(const io::CtImage& ct, const Box& box, const Components&
           best_label = labels[n];
         }
       }
+  // The opening removes voxels up to its radius from what it keeps: a seed in
+  // such a voxel (an organ's thin rim, a vessel's wall) means the component
+  // the opening left beside it.
+  const double reach_m = 1e-3 * options.opening_radius_mm + 0.5 * ct.spacing_m.maxCoeff();
+  if (best_label != 0 && best_m <= reach_m) {
+    Logger("stages").info("the seed point {} is in no organ candidate; taking the nearest candidate component, "
+                          "{:.1f} mm away (within the opening's {:g} mm)",
+                          Millimetres(seed_m), 1e3 * best_m, options.opening_radius_mm);
+    return best_label;
+  }
   const double voxel_ml = 1e6 * ct.spacing_m.prod();
   std::string nearest = best_label == 0
                             ? "no candidate component at all"

@@ -327,7 +327,7 @@ io::SurfaceMesh ExtractSurface(const VoxelMask& mask, const SurfaceOptions& opti
     const SurfaceTopology topology = CheckSurfaceTopology(made.surface);
     const std::string how = fmt::format("blur {:g} voxels, {} decimation", attempt.sigma_voxels,
                                         attempt.preserve_topology ? "topology-preserving" : "quadric");
-    if (!topology.IsClosedManifoldSphere()) {
+    if (options.require_solid_ball && !topology.IsClosedManifoldSphere()) {
       failures += fmt::format("\n  {}: {}", how, topology.Describe());
       continue;
     }
@@ -342,7 +342,7 @@ io::SurfaceMesh ExtractSurface(const VoxelMask& mask, const SurfaceOptions& opti
                           "which the mesher needs, in any of {} attempts:{}",
                           mask.Count(), attempts, failures),
               kWhere,
-              fmt::format("blur the mask more (image_smoothing_sigma_voxels, now {:g}) or ask for another triangle "
+              fmt::format("blur the mask more (preop --smoothing-voxels, now {:g}) or ask for another triangle "
                           "count (--triangles, now {}); tunnels through the organ must be filled in the mask",
                           options.image_smoothing_sigma_voxels, options.target_triangles));
 }

@@ -38,13 +38,17 @@ struct SurfaceOptions {
   // Decimation stops at this many triangles (kept as is when flying edges give
   // fewer).
   int target_triangles = 5000;
+  // Whether the surface must bound one solid ball, as the mesher needs. An
+  // overlay's surface (vessels, chambers) is drawn, not meshed: without this
+  // the first surface made is kept whatever its topology.
+  bool require_solid_ball = true;
 
   std::string Validate() const;  // empty when valid, else what is wrong
 };
 
 // The extra blurs, in voxels, added to image_smoothing_sigma_voxels for the
 // later attempts when a surface fails CheckSurfaceTopology.
-inline constexpr double kExtraBlursVoxels[] = {1.0, 2.0};
+inline constexpr double kExtraBlursVoxels[] = {1.0, 2.0, 3.0, 4.0};
 
 struct SurfaceReport {
   int extracted_triangles = 0;  // from flying edges, before decimation

@@ -32,7 +32,7 @@ void RequireClosedManifold(const io::SurfaceMesh& surface, const std::string& na
   throw Error(fmt::format("{} ({} triangles) is not the boundary of one solid ball: {}", name,
                           surface.num_triangles(), topology.Describe()),
               where,
-              "if it was extracted from a mask, extract it again with more smoothing (image_smoothing_sigma_voxels) "
+              "if it was extracted from a mask, extract it again with more smoothing (preop --smoothing-voxels) "
               "or another --triangles; a surface file must be one closed, consistently oriented surface without "
               "tunnels (repair it in MeshLab or 3D Slicer)");
 }
@@ -213,11 +213,18 @@ sim::TetMesh Tetrahedralise(const io::SurfaceMesh& surface, const VoxelMask& mou
   request.target_tets = options.target_tets;
   request.max_passes = kMaxMeshingPasses;
   const std::string gmsh_fix =
-      fmt::format("extract the surface again with more smoothing (image_smoothing_sigma_voxels) or another "
+      fmt::format("extract the surface again with more smoothing (preop --smoothing-voxels) or another "
                   "--triangles, or ask for another --tets (now {}); Gmsh needs one closed surface that does not "
                   "cut itself",
                   options.target_tets);
-  io::GmshMeshing meshing = io::MeshInGmsh(request, where, gmsh_fix);
+  const auto mesh_in_gmsh = [&] {
+    try {
+      return io::MeshInGmsh(request, where, gmsh_fix);
+    } catch (const Error& e) {
+      throw UnmeshableSurface(e.problem(), e.where(), e.fix());
+    }
+  };
+  io::GmshMeshing meshing = mesh_in_gmsh();
   TetrahedralisationReport r;
   r.min_radius_ratio_meshed = MeasureQuality(meshing.mesh, options.min_radius_ratio).min_radius_ratio;
   r.slivers_removed = PeelBoundarySlivers(options.min_radius_ratio, &meshing.mesh);
@@ -229,7 +236,7 @@ sim::TetMesh Tetrahedralise(const io::SurfaceMesh& surface, const VoxelMask& mou
     request.optimisation_rounds = remeshing.optimisation_rounds;
     request.optimisation_threshold = std::min(1.0, 2 * options.min_radius_ratio);
     request.target_tets = std::max(1, static_cast<int>(std::lround(remeshing.target_scale * options.target_tets)));
-    io::GmshMeshing remeshed = io::MeshInGmsh(request, where, gmsh_fix);
+    io::GmshMeshing remeshed = mesh_in_gmsh();
     const int peeled = PeelBoundarySlivers(options.min_radius_ratio, &remeshed.mesh);
     const Quality remeshed_quality = MeasureQuality(remeshed.mesh, options.min_radius_ratio);
     Logger("stages").info("{}: worst radius ratio {:.3f} with {} more rounds of Gmsh's optimiser, {:g} x the target "
@@ -245,7 +252,7 @@ sim::TetMesh Tetrahedralise(const io::SurfaceMesh& surface, const VoxelMask& mou
   sim::TetMesh& mesh = meshing.mesh;
   if (quality.min_radius_ratio < options.min_radius_ratio) {
     const Eigen::Vector3d worst_mm = 1e3 * Centroid(mesh, quality.worst_element);
-    throw Error(fmt::format("the mesh of {} has {} of its {} tetrahedra under the radius ratio {:g}, the worst "
+    throw UnmeshableSurface(fmt::format("the mesh of {} has {} of its {} tetrahedra under the radius ratio {:g}, the worst "
                             "{:.3f} at ({:.1f}, {:.1f}, {:.1f}) mm, after {} remeshings with up to {} more rounds of Gmsh's "
                             "optimiser",
                             options.surface_name, quality.under_bound, mesh.num_tets(), options.min_radius_ratio,

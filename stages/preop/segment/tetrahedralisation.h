@@ -3,6 +3,7 @@
 #include <string>
 
 #include "io/surface_mesh.h"
+#include "sim/error.h"
 #include "sim/tet_mesh.h"
 #include "stages/preop/segment/segmentation.h"
 
@@ -72,6 +73,15 @@ struct Remeshing {
 };
 inline constexpr Remeshing kRemeshings[] = {{2, 1.0}, {6, 1.0}, {2, 1.05}, {2, 0.95}};
 
+// What Tetrahedralise throws when the surface is valid but Gmsh cannot mesh
+// it (it cuts itself: "Wrong topology of boundary mesh") or no mesh reaches
+// min_radius_ratio: both come from surface detail finer than the elements,
+// which a smoother surface removes (docs/preop.md, "Tetrahedralisation.").
+class UnmeshableSurface : public Error {
+ public:
+  using Error::Error;
+};
+
 // The element count lands within kTetCountTolerance of the target (the size
 // is estimated from volume / target, then corrected from the counts of up to
 // kMaxMeshingPasses meshings).
@@ -86,9 +96,9 @@ inline constexpr int kMaxMeshingPasses = 4;
 // "body". The mesh is in metres, positively oriented, without unused nodes.
 // @throws dg::Error for invalid options, a surface that is not the boundary
 //   of one solid ball (CheckSurfaceTopology: saying what is wrong and where),
-//   naming the surface and the step when Gmsh fails, or when no mesh reaches
-//   min_radius_ratio (the worst ratio, the elements under the bound, where the
-//   worst lies).
+//   and UnmeshableSurface naming the surface and the step when Gmsh fails, or
+//   when no mesh reaches min_radius_ratio (the worst ratio, the elements under
+//   the bound, where the worst lies).
 sim::TetMesh Tetrahedralise(const io::SurfaceMesh& surface, const VoxelMask& mount,
                             const TetrahedralisationOptions& options, TetrahedralisationReport* report = nullptr);
 

@@ -170,6 +170,22 @@ TEST_CASE("motion registration: points outside the CT's grid are an error", "[un
   points.col(0) = Eigen::Vector3d::Zero();
   points.col(1) = Eigen::Vector3d(0.1, 0, 0);
   REQUIRE_THROWS_WITH(deformations[1].Displacements(points), Contains("point 1") && Contains("outside"));
+
+  // Within a voxel beyond the image's extent (an organ cut by the field of
+  // view, its smoothed surface), a point takes the displacement at the
+  // extent's nearest point.
+  const io::CtImage grid = TexturedCube(true);
+  const auto at_index = [&](double i) {
+    const Eigen::Vector3d index(i, 0.5 * (grid.size.y() - 1), 0.5 * (grid.size.z() - 1));
+    return Eigen::Vector3d(grid.origin_m + grid.direction * grid.spacing_m.cwiseProduct(index));
+  };
+  const double edge = grid.size.x() - 0.5;
+  Eigen::Matrix3Xd beyond(3, 2);
+  beyond << at_index(edge - 1e-9), at_index(edge + 0.9);
+  const Eigen::Matrix3Xd u = deformations[1].Displacements(beyond);
+  CHECK((u.col(1) - u.col(0)).norm() < 1e-12);
+  beyond.col(1) = at_index(edge + 1.1);
+  CHECK_THROWS_WITH(deformations[1].Displacements(beyond), Contains("outside"));
 }
 
 // A cubic B-spline interpolant reproduces cubic polynomials exactly where the

@@ -204,6 +204,17 @@ TEST_CASE("preop segment: a seed point in no candidate names its HU, the range a
   REQUIRE_THROWS_WITH(Segment(ct, options), Contains("outside the CT's grid"));
 }
 
+TEST_CASE("preop segment: a seed point the opening removed takes the component beside it", "[unit]") {
+  const io::CtImage ct = BlobsCt(32, {kLarge, kSmall});
+  SegmentationOptions options;
+  options.opening_radius_mm = 2;
+  options.seed_point_m = ct.PointOf(17, 16, 16);  // 1 mm beyond the large ball's pole, within the opening's 2 mm
+  const Segmentation seeded = Segment(ct, options);
+  CHECK((Centroid(seeded.organ) - kLarge.centre).norm() < 0.1);
+  options.seed_point_m = ct.PointOf(10, 25, 16);  // 3 mm beyond its side: more than the opening and half a voxel
+  CHECK_THROWS_WITH(Segment(ct, options), Contains("in no organ candidate"));
+}
+
 TEST_CASE("preop segment: voxels outside the region of interest are no candidates, in any frame", "[unit]") {
   for (const Eigen::Matrix3d& direction : {Eigen::Matrix3d(Eigen::Matrix3d::Identity()), Mirror()}) {
     const io::CtImage ct = BlobsCt(32, {kLarge, kSmall}, direction);
