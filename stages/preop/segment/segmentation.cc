@@ -629,6 +629,11 @@ std::string SegmentationOptions::Validate() const {
 
 Segmentation Segment(const io::CtImage& ct, const SegmentationOptions& options) {
   RequireValid(options, ct);
+  if (!ct.values_are_hu) {
+    throw Error("automatic segmentation needs CT numbers in HU, and this image's values were taken as stored "
+                "(not HU)",
+                ct.source, "give a label map (preop --labels), or the values' scale to HU (--intensity-scale)");
+  }
   return Guarded(ct, [&] {
     const Box box = WorkingBox(ct, options);
     const HuImage::Pointer hu = WorkingImage(ct, box, options);

@@ -158,7 +158,8 @@ struct Segmentation {
 };
 
 // Automatic segmentation of one CT phase, on any direction of its grid.
-// @throws dg::Error for invalid options, an image without voxels, a region of
+// @throws dg::Error for invalid options, an image whose values are not HU
+//   (io::CtImage::values_are_hu), an image without voxels, a region of
 //   interest that misses the grid, when no organ voxel is found (naming the
 //   HU range and the image's own range), and a seed point outside the grid or
 //   the region or in no candidate component (naming the point, its voxel's HU,

@@ -7,21 +7,17 @@
 #include <cmath>
 #include <memory>
 
-// The system's Eigen modules before ITK's headers: ITK's bundled Eigen (3.3,
-// same guards) then uses them instead of compiling its own against ours.
 #include <Eigen/Dense>
 #include <catch2/catch.hpp>
-#include <itkImage.h>
-#include <itkImageFileWriter.h>
 #include <spdlog/sinks/ringbuffer_sink.h>
 
 #include "io/ct/ct_reader.h"
 #include "io/ct/dicom_writer.h"
-#include "io/ct/itk_factories.h"
+#include "io/ct/image_file_writer.h"
 #include "sim/log.h"
 #include "tests/io/ct/ct_fixtures.h"
-#include "tests/support/temporary_folder.h"
 #include "tests/support/real_data.h"
+#include "tests/support/temporary_folder.h"
 
 namespace dg::io {
 namespace {
@@ -30,35 +26,6 @@ using Catch::Matchers::Contains;
 using Catch::Matchers::WithinAbs;
 
 std::string Abdomen(const std::string& file) { return dg::testing::RealData("03_ct_abdomen_totalseg/" + file); }
-
-// Writes a CtImage through ITK as int16 (HU) or uint8 (labels), in millimetres.
-template <typename T>
-void WriteWithItk(const CtImage& ct, const std::string& path) {
-  RegisterItkImageIo();
-  using Image = itk::Image<T, 3>;
-  auto image = Image::New();
-  typename Image::SizeType size;
-  typename Image::SpacingType spacing;
-  typename Image::PointType origin;
-  typename Image::DirectionType R;
-  for (int a = 0; a < 3; ++a) {
-    size[a] = ct.size[a];
-    spacing[a] = 1e3 * ct.spacing_m[a];
-    origin[a] = 1e3 * ct.origin_m[a];
-    for (int b = 0; b < 3; ++b) R(a, b) = ct.direction(a, b);
-  }
-  image->SetRegions(typename Image::RegionType(size));
-  image->SetSpacing(spacing);
-  image->SetOrigin(origin);
-  image->SetDirection(R);
-  image->Allocate();
-  for (size_t v = 0; v < ct.num_voxels(); ++v) image->GetBufferPointer()[v] = static_cast<T>(ct.values[v]);
-  auto writer = itk::ImageFileWriter<Image>::New();
-  writer->SetInput(image);
-  writer->SetFileName(path);
-  writer->SetUseCompression(true);
-  writer->Update();
-}
 
 // The same voxels at the same physical points as `aligned` (direction the
 // identity), on a grid whose voxel axis a is S axis `axis[a]`, along it or
@@ -125,8 +92,8 @@ TEST_CASE("ct orientation: a CT written in other orientations reads to the same 
     REQUIRE(MatchAxes(file.direction).Code() == orientation.code);
     const std::string stem = temporary.path() + "/" + orientation.code;
     WriteDicomSeries(file, stem + "_dicom", testing::PhaseInfo(orientation.code, 1, 1));
-    WriteWithItk<int16_t>(file, stem + ".nii.gz");
-    WriteWithItk<int16_t>(file, stem + ".mha");
+    WriteImageFile(file, stem + ".nii.gz", StoredPixel::kInt16);
+    WriteImageFile(file, stem + ".mha", StoredPixel::kInt16);
     // DICOM's slice axis is the cross product of the row and column axes: a left-handed grid reads
     // with its slices in the other order.
     Eigen::Matrix3d dicom = file.direction;
@@ -226,7 +193,7 @@ TEST_CASE("ct orientation: an oblique CT is resampled onto S's axes, with a warn
       for (int i = 0; i < file.size.x(); ++i) file.values[file.Index(i, j, k)] = float(SmoothHu(file.PointOf(i, j, k)));
     }
   }
-  WriteWithItk<float>(file, temporary.File("oblique.mha"));
+  WriteImageFile(file, temporary.File("oblique.mha"), StoredPixel::kFloat32);
 
   auto log = std::make_shared<spdlog::sinks::ringbuffer_sink_mt>(8);
   Logger("io").sinks().push_back(log);

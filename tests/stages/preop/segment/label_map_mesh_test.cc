@@ -252,13 +252,15 @@ TEST_CASE("preop mesh: a surface with a hole is refused with a dg::Error, not an
 
 TEST_CASE("preop mesh: a mask with a tunnel that blurring cannot close is refused, saying so", "[unit]") {
   VoxelMask ring;
-  ring.size = Eigen::Vector3i(40, 40, 12);
+  // A ring 14 voxels wide and 20 high around a hole 24 across: wider than
+  // every blur tried (kExtraBlursVoxels) can close.
+  ring.size = Eigen::Vector3i(64, 64, 24);
   ring.inside.assign(ring.num_voxels(), 0);
-  for (int k = 0; k < 12; ++k)
-    for (int j = 0; j < 40; ++j)
-      for (int i = 0; i < 40; ++i) {
-        const double r = std::hypot(i - 19.5, j - 19.5);
-        ring.inside[ring.Index(i, j, k)] = r > 8 && r < 16 && k > 1 && k < 10;
+  for (int k = 0; k < 24; ++k)
+    for (int j = 0; j < 64; ++j)
+      for (int i = 0; i < 64; ++i) {
+        const double r = std::hypot(i - 31.5, j - 31.5);
+        ring.inside[ring.Index(i, j, k)] = r > 12 && r < 26 && k > 1 && k < 22;
       }
   REQUIRE_THROWS_AS(ExtractSurface(ring, SurfaceOptions{}), Error);
   REQUIRE_THROWS_WITH(ExtractSurface(ring, SurfaceOptions{}), Catch::Matchers::Contains("1 tunnels"));

@@ -204,6 +204,12 @@ TEST_CASE("preop segment: a seed point in no candidate names its HU, the range a
   REQUIRE_THROWS_WITH(Segment(ct, options), Contains("outside the CT's grid"));
 }
 
+TEST_CASE("preop segment: automatic segmentation refuses values that are not HU", "[unit]") {
+  io::CtImage ct = BlobsCt(32, {kLarge, kSmall});
+  ct.values_are_hu = false;  // as read with --not-hu
+  CHECK_THROWS_WITH(Segment(ct, SegmentationOptions{}), Contains("needs CT numbers in HU") && Contains("--labels"));
+}
+
 TEST_CASE("preop segment: a seed point the opening removed takes the component beside it", "[unit]") {
   const io::CtImage ct = BlobsCt(32, {kLarge, kSmall});
   SegmentationOptions options;
