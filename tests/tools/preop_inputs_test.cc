@@ -16,6 +16,7 @@
 #include "tests/support/temporary_folder.h"
 #include "tests/support/text_file.h"
 #include "tests/support/tiny_phantom.h"
+#include "tests/tools/tiny_preop_options.h"
 #include "tools/preop/fiducial_file.h"
 #include "tools/preop/preop_job.h"
 
@@ -102,17 +103,6 @@ TEST_CASE("bead detection: a phase whose count differs lists every phase's count
                     Contains("phase 1 has 1 beads but phase 0 has 2") && Contains("per phase: 2 1") &&
                         Contains("(10.0, 20.0, 30.0)") && Contains("--fiducials"));
   CHECK(stages::MatchBeadsAcrossPhases({{}, {}}, {"p0.mhd", "p1.mhd"}, {}).num_fiducials() == 0);
-}
-
-PreopOptions TinyOptions(const std::string& out_dir) {
-  const fs::path phantom = testing::TinyPhantomDir();
-  PreopOptions options;
-  options.ct_inputs = {(phantom / "ct" / "dicom").string()};
-  options.out_dir = out_dir;
-  options.like_scene = (phantom / "scene.yaml").string();
-  options.mesh.target_tets = 1500;
-  options.progress = false;
-  return options;
 }
 
 // The phantom's beads are 3000 HU: above 5000 HU there is none. The run then

@@ -11,6 +11,7 @@
 #include "tests/support/temporary_folder.h"
 #include "tests/support/text_file.h"
 #include "tests/support/tiny_phantom.h"
+#include "tests/tools/tiny_preop_options.h"
 #include "tools/preop/preop_bench.h"
 #include "tools/preop/preop_job.h"
 
@@ -21,17 +22,6 @@ namespace fs = std::filesystem;
 using Catch::Matchers::Contains;
 
 using testing::ReadText;
-
-PreopOptions TinyOptions(const std::string& out_dir) {
-  const fs::path phantom = testing::TinyPhantomDir();
-  PreopOptions options;
-  options.ct_inputs = {(phantom / "ct" / "dicom").string()};
-  options.out_dir = out_dir;
-  options.like_scene = (phantom / "scene.yaml").string();
-  options.mesh.target_tets = 1500;
-  options.progress = false;
-  return options;
-}
 
 TEST_CASE("preop: the tiny phantom's DICOM CT to a scene whose motion matches the phantom's", "[integration]") {
   const dg::testing::TemporaryFolder folder("dg_preop_test");
