@@ -95,7 +95,7 @@ void AddPreopCommand(CLI::App& app) {
   command->add_option("--series", o.series_uids, "Phases by SeriesInstanceUID, in cycle order");
   command->add_option("--like", o.like_scene,
                       "A scene whose video, calibration, truth and run settings the written scene.yaml takes");
-  command->add_option("--period-s", o.period_s, "The CT's cardiac period, seconds (default: the --like scene's)");
+  command->add_option("--period-s", o.period_s, "The CT's cycle, seconds: a heartbeat or a breath (default: the --like scene's)");
   command->add_option("--labels", o.label_map,
                       "A label map on phase 0's grid (3D Slicer, ITK-SNAP) instead of automatic segmentation");
   command->add_option("--organ-label", o.segmentation.organ_label, "The organ's label in --labels")->capture_default_str();
@@ -110,26 +110,32 @@ void AddPreopCommand(CLI::App& app) {
   command->add_option("--seed-point", args->seed_point_mm,
                       "Automatic: a point inside the organ, X Y Z mm in the CT's frame (LPS); its component is the "
                       "organ instead of the largest one")
-      ->expected(3);
+      ->expected(3)
+      ->delimiter(',');
   command->add_option("--max-internal", args->max_internal,
                       "Automatic: internal structures kept, largest first (default: the preset's; phantom 8)");
   command->add_option("--intensity-scale", args->intensity_scale,
-                      "The CT's values are not HU: SLOPE INTERCEPT such that HU = SLOPE * value + INTERCEPT")
-      ->expected(2);
+                      "The CT's values are not HU: SLOPE INTERCEPT (or SLOPE,INTERCEPT) such that HU = SLOPE * value + "
+                      "INTERCEPT")
+      ->expected(2)
+      ->delimiter(',');
   command->add_flag("--not-hu", args->not_hu,
                     "Take the CT's values as stored, unchecked (an image that is not CT in HU); automatic "
                     "segmentation then needs HU and is refused: give --labels");
-  command->add_option("--organ-hu", args->organ_hu, "Automatic: the organ's HU range MIN MAX (default: the preset's; phantom -480 375)")
+  command->add_option("--organ-hu", args->organ_hu,
+                      "Automatic: the organ's HU range MIN MAX (default: the preset's; phantom -480 375)")
       ->expected(2);
   command->add_option("--internal-hu", args->internal_hu,
                       "Automatic: internal structures' HU range MIN MAX (default: the preset's; phantom 145 375)")
       ->expected(2);
-  command->add_option("--mount-hu", args->mount_hu, "Automatic: the mount's HU range MIN MAX (default: the preset's; phantom 375 1750)")
+  command->add_option("--mount-hu", args->mount_hu,
+                      "Automatic: the mount's HU range MIN MAX (default: the preset's; phantom 375 1750)")
       ->expected(2);
   command->add_option("--roi", args->roi_mm,
                       "A box in the CT's frame (LPS, mm): XMIN YMIN ZMIN XMAX YMAX ZMAX; beads and the organ are "
                       "looked for only inside it")
-      ->expected(6);
+      ->expected(6)
+      ->delimiter(',');
   command->add_option("--fiducials", o.fiducials_file,
                       "The fiducials at phase 0 from a file instead of beads found in the CT: 3D Slicer markups "
                       "(.mrk.json, .fcsv; LPS or RAS as stated in the file) or x,y,z in mm, LPS (.csv)");
@@ -137,7 +143,8 @@ void AddPreopCommand(CLI::App& app) {
       ->capture_default_str();
   command->add_option("--bead-size-mm", args->bead_size_mm,
                       "Fiducial beads: MIN MAX diameter, mm, of a sphere of a bead's volume (default 0 6)")
-      ->expected(2);
+      ->expected(2)
+      ->delimiter(',');
   command->add_flag("--resume", o.resume,
                     "Take each phase's registration from --out's cache/ when it was made from the same CT and "
                     "registration options (after a failure late in the run, or to mesh again)");
