@@ -5,7 +5,6 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
-#include "io/ct/dicom_writer.h"
 
 namespace dg::tools::phantom {
 namespace {
@@ -27,26 +26,33 @@ std::string CtIdentity(const PhantomSpec& spec) {
 
 }  // namespace
 
-void WriteDicomPhase(const io::VolumeI16& volume, const PhantomSpec& spec, int phase, const std::string& folder) {
-  const std::string identity = CtIdentity(spec);
+io::DicomSeriesInfo PhaseSeriesInfo(const std::string& identity, int phase, int phases,
+                                    std::optional<double> heart_rate_bpm) {
   io::DicomSeriesInfo info;
-  info.patient_id = "DG-PHANTOM-" + spec.preset + "-" + std::to_string(spec.seed);
-  info.patient_name = "Phantom^" + spec.preset;
   info.study_uid = io::DeterministicUid(identity + ", study");
   info.series_uid = io::DeterministicUid(identity + ", series of phase " + std::to_string(phase));
   info.frame_of_reference_uid = io::DeterministicUid(identity + ", frame of reference");
-  info.study_description = "dynaguide phantom 4D CT";
-  info.date = "20000101";  // a fixed date: the same spec writes the same bytes
-  const double fraction = double(phase) / spec.phases;
+  info.date = "20000101";  // a fixed date: the same identity writes the same bytes
+  const double fraction = double(phase) / phases;
   char description[64];
   std::snprintf(description, sizeof description, "phase %02d (%.4g%%)", phase, 100 * fraction);
   info.series_description = description;
   info.series_number = phase + 1;
   info.temporal_position = phase + 1;
-  info.temporal_positions = spec.phases;
+  info.temporal_positions = phases;
   info.cycle_fraction = fraction;
-  info.trigger_time_ms = 1e3 * spec.period_s() * fraction;
-  info.heart_rate_bpm = spec.heart_rate_bpm;
+  if (heart_rate_bpm) {  // HeartRate and TriggerTime are the cardiac gating's tags
+    info.trigger_time_ms = 1e3 * (60 / *heart_rate_bpm) * fraction;
+    info.heart_rate_bpm = *heart_rate_bpm;
+  }
+  return info;
+}
+
+void WriteDicomPhase(const io::VolumeI16& volume, const PhantomSpec& spec, int phase, const std::string& folder) {
+  io::DicomSeriesInfo info = PhaseSeriesInfo(CtIdentity(spec), phase, spec.phases, spec.heart_rate_bpm);
+  info.patient_id = "DG-PHANTOM-" + spec.preset + "-" + std::to_string(spec.seed);
+  info.patient_name = "Phantom^" + spec.preset;
+  info.study_description = "dynaguide phantom 4D CT";
   io::WriteDicomSeries(io::ToCtImage(volume, ""), folder, info);
 }
 

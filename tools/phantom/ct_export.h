@@ -1,13 +1,26 @@
 #pragma once
 
+#include <optional>
 #include <string>
 
+#include "io/ct/dicom_writer.h"
 #include "io/ct/displacement_field.h"
 #include "io/metaimage.h"
 #include "tools/phantom/heart_motion.h"
 #include "tools/phantom/phantom_spec.h"
 
 namespace dg::tools::phantom {
+
+// The DICOM description of phase `phase` of a generated 4D CT of `phases`:
+// one study whose UIDs and frame of reference derive from `identity` (what
+// makes that CT differ from any other), a series per phase with
+// TemporalPositionIdentifier phase + 1 of phases, the cycle fraction phase /
+// phases (NominalPercentageOfCardiacPhase), "phase NN (P%)" as its
+// description and a fixed date, so the same identity writes the same bytes;
+// with a heart rate, HeartRate and the matching TriggerTime. Patient and
+// study description are the caller's.
+io::DicomSeriesInfo PhaseSeriesInfo(const std::string& identity, int phase, int phases,
+                                    std::optional<double> heart_rate_bpm);
 
 // Writes phase `phase` of the phantom's 4D CT as a DICOM CT series into
 // `folder`: one study for all phases (its UIDs and the frame of reference
