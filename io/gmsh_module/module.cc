@@ -84,7 +84,7 @@ std::string Mesh(const MeshRequest& request, Tetrahedra* out) {
         gmsh::model::mesh::clear();
         gmsh::option::setNumber("Mesh.MeshSizeMin", h);
         gmsh::option::setNumber("Mesh.MeshSizeMax", h);
-        gmsh::model::mesh::generate(3);
+        Session::Mesh([] { gmsh::model::mesh::generate(3); });
         gmsh::model::mesh::getElementsByType(4, tags, nodes);
       });
       return static_cast<double>(tags.size());
@@ -105,8 +105,10 @@ std::string Mesh(const MeshRequest& request, Tetrahedra* out) {
       session.Run("optimising the tetrahedra", [&] {
         gmsh::option::setNumber("Mesh.OptimizeThreshold", request.optimisation_threshold);
         for (int round = 0; round < request.optimisation_rounds; ++round) {
-          gmsh::model::mesh::optimize("", /*force=*/false, /*niter=*/1);
-          gmsh::model::mesh::optimize("Relocate3D", /*force=*/false, /*niter=*/1);
+          Session::Mesh([] {
+            gmsh::model::mesh::optimize("", /*force=*/false, /*niter=*/1);
+            gmsh::model::mesh::optimize("Relocate3D", /*force=*/false, /*niter=*/1);
+          });
         }
       });
     }

@@ -1,5 +1,8 @@
 #include "io/gmsh_module/session.h"
 
+#include <string>
+#include <vector>
+
 #include <gmsh.h>
 
 namespace dg::io::gmsh_module {
@@ -38,6 +41,26 @@ Session::Session(SurfaceAlgorithm surface) : lock_(GmshMutex()) {
 }
 
 Session::~Session() { gmsh::finalize(); }
+
+void Session::Mesh(const std::function<void()>& call) {
+  gmsh::logger::stop();  // a restart empties the log
+  gmsh::logger::start();
+  gmsh::option::setNumber("General.AbortOnError", 1);
+  try {
+    call();
+  } catch (...) {
+    gmsh::option::setNumber("General.AbortOnError", 2);
+    throw;
+  }
+  gmsh::option::setNumber("General.AbortOnError", 2);  // Gmsh's default: throw
+  std::vector<std::string> log;
+  gmsh::logger::get(log);
+  std::string errors;
+  for (const std::string& line : log) {
+    if (line.rfind("Error", 0) == 0) errors += (errors.empty() ? "" : "; ") + line;
+  }
+  if (!errors.empty()) throw errors;
+}
 
 void Session::Run(const std::string& step, const std::function<void()>& body) {
   std::string reason;

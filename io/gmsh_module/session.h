@@ -39,6 +39,14 @@ class Session {
 
   void Run(const std::string& step, const std::function<void()>& body);
 
+  // Calls one of Gmsh's meshing functions (generate, optimize), which run
+  // OpenMP regions: an error Gmsh throws inside one ends the process
+  // (std::terminate, rc 134), whatever catches it outside. So Gmsh is told
+  // to stop meshing on an error instead of throwing (General.AbortOnError 1)
+  // for the call, and an error in its log is thrown afterwards, outside the
+  // region, as a std::string (as Gmsh's own throws).
+  static void Mesh(const std::function<void()>& call);
+
  private:
   std::lock_guard<std::mutex> lock_;
 };

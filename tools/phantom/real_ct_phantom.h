@@ -51,9 +51,10 @@ struct RealCtPhantomSummary {
 //   truth/dvf_phase_NN.mha  u(X) in mm: X of phase 0 is at X + u(X) in phase NN
 //   labels.nii.gz        the label map on the CT's grid (with --labels)
 //   phantom.json         the source, the motion and its parameters
-// Phase k's image is I_k(x) = I_0(X) with X + u_k(X) = x, I_0 sampled
-// trilinearly (a scanner's reconstruction is about as smooth), the grid's
-// edge voxels repeated outside it. The grid is the CT's as read, its slice
+// Every phase, phase 0 included, is formed alike, as a scanner reconstructs
+// each: phase k's image is I_k(x) = G * I_0(X) with X + u_k(X) = x, the CT
+// as read blurred by a Gaussian point-spread of 0.5 voxel and sampled through
+// a cubic B-spline, the grid's edge voxels repeated outside it. The grid is the CT's as read, its slice
 // axis reversed when the direction is left-handed (DICOM's slice axis is the
 // orientation's normal). Parallel over slices.
 // @throws dg::Error for invalid options, an unreadable CT or label map, a label

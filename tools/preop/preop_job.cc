@@ -83,6 +83,34 @@ std::pair<sim::Material, double> SceneMaterialAndStep(const std::string& like_sc
   return {like.material, like.simulation ? like.simulation->dt_s : io::Scene::Simulation{}.dt_s};
 }
 
+// The organ as a solid the mesher takes: the segmented mask when its surface
+// is the boundary of one solid ball, else the mask closed by a larger ball
+// in turn (kTunnelClosings_mm), which fills the tunnels vessels make through
+// an organ (docs/preop.md, "Surface."). The radius used is kept (0: none).
+stages::preop::VoxelMask SolidOrgan(const stages::preop::VoxelMask& segmented,
+                                    const stages::preop::SurfaceOptions& surface, double* closing_mm) {
+  *closing_mm = 0;
+  try {
+    stages::preop::ExtractSurface(segmented, surface);
+    return segmented;
+  } catch (const stages::preop::NotASolidBall&) {
+    for (const double radius_mm : kTunnelClosings_mm) {
+      stages::preop::VoxelMask closed = stages::preop::ClosedSolid(segmented, radius_mm);
+      try {
+        stages::preop::ExtractSurface(closed, surface);
+      } catch (const stages::preop::NotASolidBall&) {
+        continue;
+      }
+      Logger("tools").warn("the organ's mask is not one solid ball (tunnels, or pieces the blur joins); closed by a "
+                           "ball of {:g} mm, which adds {:.1f} ml to its {:.1f} ml",
+                           radius_mm, 1e6 * (closed.Volume_m3() - segmented.Volume_m3()), 1e6 * segmented.Volume_m3());
+      *closing_mm = radius_mm;
+      return closed;
+    }
+    throw;
+  }
+}
+
 double PeakRssGb() {
   rusage usage{};
   getrusage(RUSAGE_SELF, &usage);
@@ -323,8 +351,9 @@ PreopSummary RunPreop(const PreopOptions& options) {
     const sim::TetMesh mesh = steps.Run("surface and tetrahedralisation", [&] {
       const auto [material, dt_s] = SceneMaterialAndStep(options.like_scene);
       stages::preop::SurfaceOptions smoothing = options.surface;
+      const stages::preop::VoxelMask organ = SolidOrgan(segmentation.organ, smoothing, &summary.tunnel_closing_mm);
       for (size_t attempt = 0;; ++attempt) {
-        surface = stages::preop::ExtractSurface(segmentation.organ, smoothing, &summary.surface);
+        surface = stages::preop::ExtractSurface(organ, smoothing, &summary.surface);
         try {
           sim::TetMesh tets = MeshForScene(surface, segmentation.mount, options.mesh, material, dt_s, &summary.mesh,
                                            &summary.stability);

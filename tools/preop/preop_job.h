@@ -75,6 +75,10 @@ struct MeshStability {
 // @throws dg::Error for an invalid material or mesh.
 MeshStability EstimateMeshStability(const sim::TetMesh& mesh, const sim::Material& material, double dt_s);
 
+// The balls (radius, mm) the organ's mask is closed by in turn when its
+// surface has tunnels that blurring does not close.
+inline constexpr double kTunnelClosings_mm[] = {8.0, 12.0, 16.0};
+
 // The extra blurs of the organ's mask, in voxels beyond the last surface's,
 // tried in turn when Gmsh cannot mesh a surface or reach the radius ratio
 // (stages::preop::UnmeshableSurface).
@@ -103,6 +107,7 @@ struct PreopSummary {
   std::string ct_reoriented_from;  // io::CtImage::reoriented_from of the phases: "" when on S's axes as read
   stages::preop::SegmentationReport segmentation;
   stages::preop::SurfaceReport surface;
+  double tunnel_closing_mm = 0;  // the ball the organ's mask was closed by to fill tunnels; 0: none
   stages::preop::TetrahedralisationReport mesh;
   std::vector<stages::preop::PhaseRegistrationReport> registration;
   MeshStability stability;

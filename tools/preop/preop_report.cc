@@ -52,7 +52,9 @@ void PreopReportFile::Write(const PreopSummary& summary, bool complete, const st
                           {"organ_box_mm", {vector(seg.organ_min_mm, 1), vector(seg.organ_max_mm, 1)}},
                           {"organ_median_hu", figure(seg.organ_median_hu)},
                           {"label_image", "segmentation.nii.gz"}};
-  json["surface"] = {{"extracted_triangles", summary.surface.extracted_triangles},
+  json["surface"] = {{"tunnel_closing_mm", figure(summary.tunnel_closing_mm)},
+                     {"smoothing_voxels", figure(summary.surface.image_smoothing_sigma_voxels)},
+                     {"extracted_triangles", summary.surface.extracted_triangles},
                      {"triangles", summary.surface.triangles}};
   const auto& mesh = summary.mesh;
   json["mesh"] = {{"nodes", mesh.nodes},

@@ -22,11 +22,11 @@
 #include <itkDisplacementFieldJacobianDeterminantFilter.h>
 #include <itkImage.h>
 #include <itkImageRegionConstIteratorWithIndex.h>
+#include <itkImageRegionIteratorWithIndex.h>
 #include <itkLinearInterpolateImageFunction.h>
 #include <itkMattesMutualInformationImageToImageMetric.h>
 #include <itkMeanSquaresImageToImageMetric.h>
 #include <itkMinimumMaximumImageCalculator.h>
-#include <itkShrinkImageFilter.h>
 #include <itkSingleValuedCostFunction.h>
 #include <itkSmoothingRecursiveGaussianImageFilter.h>
 #include <itkTransformToDisplacementFieldFilter.h>
@@ -465,21 +465,51 @@ Image::Pointer Smoothed(const Image::Pointer& image, double sigma_voxels) {
   using Filter = itk::SmoothingRecursiveGaussianImageFilter<Image, Image>;
   const Filter::Pointer filter = Filter::New();
   filter->SetInput(image);
-  filter->SetSigma(sigma_voxels * image->GetSpacing()[0]);
+  // sigma_voxels along every axis: an anisotropic CT's slice axis smoothed by
+  // as many of its own (longer) voxels as the others.
+  Filter::SigmaArrayType sigma;
+  for (unsigned d = 0; d < kDim; ++d) sigma[d] = sigma_voxels * image->GetSpacing()[d];
+  filter->SetSigmaArray(sigma);
   filter->SetNumberOfWorkUnits(1);
   filter->Update();
   return filter->GetOutput();
 }
 
+// Every factor-th voxel along each axis, each sample placed at the voxel it
+// copies (the samples centred on the image to within half a voxel; where
+// ITK's filter places them right, the same samples). Not ITK's
+// ShrinkImageFilter: that centres its output grid on the input's and copies
+// the voxel nearest each output point, so along an axis of 2m voxels (and of
+// 4m + 2 at factor 4) every sample lies half a voxel from the voxel it holds,
+// and the fixed image of each shrunk level is shifted by half a voxel along
+// that axis (1.5 mm on a 3 mm CT), which the finest level only partly undoes.
 Image::Pointer Shrunk(const Image::Pointer& image, unsigned factor) {
   if (factor == 1) return image;
-  using Filter = itk::ShrinkImageFilter<Image, Image>;
-  const Filter::Pointer filter = Filter::New();
-  filter->SetInput(image);
-  filter->SetShrinkFactors(factor);
-  filter->SetNumberOfWorkUnits(1);
-  filter->Update();
-  return filter->GetOutput();
+  const Image::RegionType& region = image->GetBufferedRegion();
+  Image::RegionType shrunk_region;
+  Image::IndexType first;
+  Image::SpacingType spacing = image->GetSpacing();
+  for (unsigned d = 0; d < kDim; ++d) {
+    const long voxels = static_cast<long>(region.GetSize(d));
+    const long samples = std::max(1L, voxels / long(factor));  // as many as ITK's filter takes
+    first[d] = region.GetIndex(d) + (voxels - 1 - (samples - 1) * long(factor)) / 2;
+    shrunk_region.SetSize(d, samples);
+    spacing[d] *= factor;
+  }
+  Image::PointType origin;
+  image->TransformIndexToPhysicalPoint(first, origin);
+  const Image::Pointer shrunk = Image::New();
+  shrunk->SetRegions(shrunk_region);
+  shrunk->SetSpacing(spacing);
+  shrunk->SetOrigin(origin);
+  shrunk->SetDirection(image->GetDirection());
+  shrunk->Allocate();
+  for (itk::ImageRegionIteratorWithIndex<Image> it(shrunk, shrunk_region); !it.IsAtEnd(); ++it) {
+    Image::IndexType source;
+    for (unsigned d = 0; d < kDim; ++d) source[d] = first[d] + long(factor) * it.GetIndex()[d];
+    it.Set(image->GetPixel(source));
+  }
+  return shrunk;
 }
 
 // One level: the transform (already on this level's grid) optimised in place

@@ -648,6 +648,20 @@ Segmentation Segment(const io::CtImage& ct, const SegmentationOptions& options) 
   });
 }
 
+VoxelMask ClosedSolid(const VoxelMask& mask, double radius_mm) {
+  MaskImage::Pointer image = NewImage<MaskImage>(mask.size);
+  std::copy(mask.inside.begin(), mask.inside.end(), image->GetBufferPointer());
+  try {
+    image = FillHoles(Close(image, RadiusVoxels(radius_mm, mask.spacing_m)));
+  } catch (const itk::ExceptionObject& e) {
+    throw Error(std::string("closing the organ's mask failed in ITK: ") + e.GetDescription(), "segmentation",
+                "check the mask");
+  }
+  VoxelMask closed = mask;
+  std::copy(image->GetBufferPointer(), image->GetBufferPointer() + mask.num_voxels(), closed.inside.begin());
+  return closed;
+}
+
 Segmentation Segment(const io::CtImage& ct, const io::CtImage& labels, const SegmentationOptions& options) {
   RequireValid(options, ct);
   const double tolerance_m = 1e-3 * ct.spacing_m.minCoeff();

@@ -166,6 +166,12 @@ struct Segmentation {
 //   the range and the nearest candidate component).
 Segmentation Segment(const io::CtImage& ct, const SegmentationOptions& options);
 
+// The mask closed by a ball of radius_mm (in voxels along each axis,
+// rounded) and its holes filled: what closes a tunnel through the solid
+// narrower than the ball, such as a vessel through the liver, which the
+// mesher's solid of spherical topology cannot have.
+VoxelMask ClosedSolid(const VoxelMask& mask, double radius_mm);
+
 // Segmentation from a label map on the CT's grid (3D Slicer, ITK-SNAP).
 // @throws dg::Error for invalid options, a label map on another grid (size,
 //   spacing, origin or direction), a label (organ, mount or internal) that

@@ -338,7 +338,7 @@ io::SurfaceMesh ExtractSurface(const VoxelMask& mask, const SurfaceOptions& opti
     }
     return std::move(made.surface);
   }
-  throw Error(fmt::format("the mask's surface ({} voxels) is not the boundary of one solid ball, "
+  throw NotASolidBall(fmt::format("the mask's surface ({} voxels) is not the boundary of one solid ball, "
                           "which the mesher needs, in any of {} attempts:{}",
                           mask.Count(), attempts, failures),
               kWhere,

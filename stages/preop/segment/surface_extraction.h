@@ -5,6 +5,7 @@
 #include <Eigen/Core>
 
 #include "io/surface_mesh.h"
+#include "sim/error.h"
 #include "stages/preop/segment/segmentation.h"
 
 namespace dg::stages::preop {
@@ -50,6 +51,14 @@ struct SurfaceOptions {
 // later attempts when a surface fails CheckSurfaceTopology.
 inline constexpr double kExtraBlursVoxels[] = {1.0, 2.0, 3.0, 4.0};
 
+// What ExtractSurface throws when no attempt gives the boundary of one solid
+// ball (a tunnel the blurs do not close, pieces): the mask, not the surface,
+// must change.
+class NotASolidBall : public Error {
+ public:
+  using Error::Error;
+};
+
 struct SurfaceReport {
   int extracted_triangles = 0;  // from flying edges, before decimation
   int triangles = 0;
@@ -86,8 +95,9 @@ SurfaceTopology CheckSurfaceTopology(const io::SurfaceMesh& surface);
 // image data has no direction). Triangles are counter-clockwise seen from
 // outside whatever the direction's handedness. No normals, no uvs. The
 // surface passes CheckSurfaceTopology.
-// @throws dg::Error for invalid options, an empty mask, or a mask whose every
-//   attempt fails the topology check (saying what is wrong, where, and what to change).
+// @throws dg::Error for invalid options or an empty mask, and NotASolidBall
+//   for a mask whose every attempt fails the topology check (saying what is
+//   wrong, where, and what to change).
 io::SurfaceMesh ExtractSurface(const VoxelMask& mask, const SurfaceOptions& options, SurfaceReport* report = nullptr);
 
 // Six times the signed volume enclosed by a closed triangle surface (positive
