@@ -206,7 +206,14 @@ sim::TetMesh Tetrahedralise(const io::SurfaceMesh& surface, const VoxelMask& mou
 
   io::gmsh_module::MeshRequest request;
   request.solid.kind = io::gmsh_module::Solid::Kind::kClosedSurface;
-  request.solid.vertices_m.assign(surface.vertices_m.data(), surface.vertices_m.data() + surface.vertices_m.size());
+  // Gmsh meshes the surface about its first vertex: floating point is not
+  // translation invariant, and one scan read from DICOM and from NIfTI lies
+  // on grids whose origins differ in the last decimal DICOM's text keeps
+  // (5e-8 mm), which was enough to change the mesh. About a point of the
+  // surface itself the two are the same numbers, and so is the mesh.
+  const Eigen::Vector3d about_m = surface.vertices_m.col(0);
+  const Eigen::Matrix3Xd local_m = surface.vertices_m.colwise() - about_m;
+  request.solid.vertices_m.assign(local_m.data(), local_m.data() + local_m.size());
   request.solid.triangles.assign(surface.triangles.data(), surface.triangles.data() + surface.triangles.size());
   request.solid.feature_angle_rad = options.feature_angle_deg * std::numbers::pi / 180;
   request.volume_m3 = enclosed_m3;
@@ -219,7 +226,9 @@ sim::TetMesh Tetrahedralise(const io::SurfaceMesh& surface, const VoxelMask& mou
                   options.target_tets);
   const auto mesh_in_gmsh = [&] {
     try {
-      return io::MeshInGmsh(request, where, gmsh_fix);
+      io::GmshMeshing meshing = io::MeshInGmsh(request, where, gmsh_fix);
+      meshing.mesh.X_m.colwise() += about_m;
+      return meshing;
     } catch (const Error& e) {
       throw UnmeshableSurface(e.problem(), e.where(), e.fix());
     }

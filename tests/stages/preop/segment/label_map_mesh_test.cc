@@ -10,6 +10,8 @@
 #include <catch2/catch.hpp>
 
 #include "io/ct/ct_reader.h"
+#include "io/ct/dicom_writer.h"
+#include "io/ct/image_file_writer.h"
 #include "io/gmsh_mesher.h"
 #include "io/surface_mesh_reader.h"
 #include "sim/error.h"
@@ -17,6 +19,7 @@
 #include "stages/preop/segment/surface_extraction.h"
 #include "stages/preop/segment/tetrahedralisation.h"
 #include "tests/support/real_data.h"
+#include "tests/support/temporary_folder.h"
 
 namespace dg::stages::preop {
 namespace {
@@ -283,6 +286,66 @@ TEST_CASE("preop mesh: a real liver surface of several pieces is refused, naming
   options.surface_name = "liver.vtk";
   REQUIRE_THROWS_WITH(Tetrahedralise(liver, NoMount(), options),
                       Catch::Matchers::Contains("6 components") && Catch::Matchers::Contains("liver.vtk"));
+}
+
+}  // namespace
+}  // namespace dg::stages::preop
+
+namespace dg::stages::preop {
+namespace {
+
+// The same voxels at the same physical points on a grid whose x and y axes run
+// the other way (direction diag(-1, -1, 1)): an LPS image written as RAS.
+io::CtImage FlippedXy(const io::CtImage& image) {
+  io::CtImage flipped = image;
+  flipped.direction = image.direction * Eigen::Vector3d(-1, -1, 1).asDiagonal();
+  flipped.origin_m = image.PointOf(image.size.x() - 1, image.size.y() - 1, 0);
+  for (int k = 0; k < image.size.z(); ++k)
+    for (int j = 0; j < image.size.y(); ++j)
+      for (int i = 0; i < image.size.x(); ++i) {
+        flipped.values[flipped.Index(i, j, k)] = image.at(image.size.x() - 1 - i, image.size.y() - 1 - j, k);
+      }
+  return flipped;
+}
+
+// A scan in another orientation is the same scan: TotalSegmentator's label
+// map as given (RAS NIfTI), written as LPS MetaImage and as a DICOM series
+// (GDCM), and as RAS again from that LPS grid, read back and meshed: the same
+// mesh in S, node for node.
+TEST_CASE("preop mesh: one label map in RAS NIfTI, LPS MetaImage and DICOM gives one mesh", "[integration]") {
+  const dg::testing::TemporaryFolder folder("dg_orientation_mesh_test");
+  const io::CtImage given = io::ReadLabelMap(AbdomenLabels());  // on S's axes, as the reader returns every image
+  REQUIRE(given.reoriented_from == "RAS");
+  io::WriteImageFile(given, folder.File("lps.mha"), io::StoredPixel::kUInt8);
+  io::WriteImageFile(FlippedXy(given), folder.File("ras.nii.gz"), io::StoredPixel::kUInt8);
+  io::DicomSeriesInfo info;
+  info.patient_id = "DG-TEST";
+  info.study_uid = io::DeterministicUid("orientation mesh test, study");
+  info.series_uid = io::DeterministicUid("orientation mesh test, series");
+  info.date = "20000101";
+  io::WriteDicomSeries(given, folder.File("dicom"), info);
+
+  const auto mesh_of = [&](const std::string& path) {
+    INFO(path);
+    const VoxelMask liver = MaskOfLabel(io::ReadLabelMap(path), kLiverLabel);
+    SurfaceOptions surface_options;
+    surface_options.target_triangles = 2000;
+    TetrahedralisationOptions options;
+    options.target_tets = 3000;
+    return Tetrahedralise(ExtractSurface(liver, surface_options), EmptyLike(liver), options);
+  };
+  const sim::TetMesh reference = mesh_of(AbdomenLabels());
+  for (const char* name : {"lps.mha", "ras.nii.gz", "dicom"}) {
+    INFO(name);
+    const io::CtImage read = io::ReadLabelMap(folder.File(name));
+    INFO(name << ": origin differs by " << (read.origin_m - given.origin_m).transpose() << " m, spacing by "
+              << (read.spacing_m - given.spacing_m).transpose() << " m, voxels "
+              << (read.values == given.values ? "equal" : "differ"));
+    const sim::TetMesh mesh = mesh_of(folder.File(name));
+    REQUIRE(mesh.num_nodes() == reference.num_nodes());
+    REQUIRE(mesh.num_tets() == reference.num_tets());
+    CHECK((mesh.X_m - reference.X_m).cwiseAbs().maxCoeff() <= 1e-9);  // 1e-6 mm
+  }
 }
 
 }  // namespace
