@@ -83,21 +83,26 @@ std::pair<sim::Material, double> SceneMaterialAndStep(const std::string& like_sc
   return {like.material, like.simulation ? like.simulation->dt_s : io::Scene::Simulation{}.dt_s};
 }
 
-// The organ as a solid the mesher takes: the segmented mask when its surface
-// is the boundary of one solid ball, else the mask closed by a larger ball
-// in turn (kTunnelClosings_mm), which fills the tunnels vessels make through
-// an organ (docs/preop.md, "Surface."). The radius used is kept (0: none).
-stages::preop::VoxelMask SolidOrgan(const stages::preop::VoxelMask& segmented,
-                                    const stages::preop::SurfaceOptions& surface, double* closing_mm) {
+// The organ as a solid the mesher takes, with its surface: the segmented
+// mask when its surface is the boundary of one solid ball, else the mask
+// closed by a larger ball in turn (kTunnelClosings_mm), which fills the
+// tunnels vessels make through an organ (docs/preop.md, "Surface."). The
+// radius used is kept (0: none).
+struct SolidAndSurface {
+  stages::preop::VoxelMask organ;
+  io::SurfaceMesh surface;
+};
+SolidAndSurface SolidOrgan(const stages::preop::VoxelMask& segmented, const stages::preop::SurfaceOptions& options,
+                           stages::preop::SurfaceReport* report, double* closing_mm) {
   *closing_mm = 0;
   try {
-    stages::preop::ExtractSurface(segmented, surface);
-    return segmented;
+    return {segmented, stages::preop::ExtractSurface(segmented, options, report)};
   } catch (const stages::preop::NotASolidBall&) {
     for (const double radius_mm : kTunnelClosings_mm) {
       stages::preop::VoxelMask closed = stages::preop::ClosedSolid(segmented, radius_mm);
+      io::SurfaceMesh surface;
       try {
-        stages::preop::ExtractSurface(closed, surface);
+        surface = stages::preop::ExtractSurface(closed, options, report);
       } catch (const stages::preop::NotASolidBall&) {
         continue;
       }
@@ -105,7 +110,7 @@ stages::preop::VoxelMask SolidOrgan(const stages::preop::VoxelMask& segmented,
                            "ball of {:g} mm, which adds {:.1f} ml to its {:.1f} ml",
                            radius_mm, 1e6 * (closed.Volume_m3() - segmented.Volume_m3()), 1e6 * segmented.Volume_m3());
       *closing_mm = radius_mm;
-      return closed;
+      return {std::move(closed), std::move(surface)};
     }
     throw;
   }
@@ -351,9 +356,11 @@ PreopSummary RunPreop(const PreopOptions& options) {
     const sim::TetMesh mesh = steps.Run("surface and tetrahedralisation", [&] {
       const auto [material, dt_s] = SceneMaterialAndStep(options.like_scene);
       stages::preop::SurfaceOptions smoothing = options.surface;
-      const stages::preop::VoxelMask organ = SolidOrgan(segmentation.organ, smoothing, &summary.tunnel_closing_mm);
+      SolidAndSurface solid =
+          SolidOrgan(segmentation.organ, smoothing, &summary.surface, &summary.tunnel_closing_mm);
+      surface = std::move(solid.surface);
       for (size_t attempt = 0;; ++attempt) {
-        surface = stages::preop::ExtractSurface(organ, smoothing, &summary.surface);
+        if (attempt > 0) surface = stages::preop::ExtractSurface(solid.organ, smoothing, &summary.surface);
         try {
           sim::TetMesh tets = MeshForScene(surface, segmentation.mount, options.mesh, material, dt_s, &summary.mesh,
                                            &summary.stability);

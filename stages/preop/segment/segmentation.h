@@ -52,10 +52,9 @@ struct HuRange {
 // filled); the mount, when there is one, is one rigid body the organ rests on.
 // What is not in the organ's component is dropped, and the report counts it.
 //
-// Automatic mode (no label map). The defaults are the phantom's (preset
-// "phantom"; segmentation_presets.h has real scans' presets), whose CT
-// numbers in HU are air -1000, epicardial fat -100, tissue 40, chambers 250,
-// mount 500, beads 3000, on 1 mm voxels:
+// Automatic mode (no label map). The defaults are preset "phantom", for the
+// synthetic heart of tools/phantom/ct_synthesis.h and its 1 mm voxels
+// (segmentation_presets.h has real scans' presets):
 //  0. the region of interest, when given: voxels whose centres lie outside the
 //     box [roi_min_m, roi_max_m] of S are no candidate for anything;
 //  1. mount (find_mount): the largest connected component of mount_hu;
