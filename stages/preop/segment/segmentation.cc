@@ -648,17 +648,115 @@ Segmentation Segment(const io::CtImage& ct, const SegmentationOptions& options) 
   });
 }
 
+VoxelBounds InsideBounds(const VoxelMask& mask) {
+  VoxelBounds bounds{mask.size, Eigen::Vector3i::Constant(-1)};
+  for (int k = 0; k < mask.size.z(); ++k)
+    for (int j = 0; j < mask.size.y(); ++j)
+      for (int i = 0; i < mask.size.x(); ++i)
+        if (mask.inside[mask.Index(i, j, k)]) {
+          bounds.first = bounds.first.cwiseMin(Eigen::Vector3i(i, j, k));
+          bounds.last = bounds.last.cwiseMax(Eigen::Vector3i(i, j, k));
+        }
+  return bounds;
+}
+
+namespace {
+
+// One pass of the exact squared Euclidean distance transform (Felzenszwalb
+// and Huttenlocher, "Distance transforms of sampled functions", 2012): along
+// `axis` of a box of `size` voxels, each value becomes
+// min over p of f(p) + (step (q - p))^2, the lower envelope of parabolas.
+void SquaredDistanceAlong(int axis, double step, const Eigen::Vector3i& size, std::vector<double>* values) {
+  const std::size_t stride = axis == 0 ? 1 : axis == 1 ? size.x() : static_cast<std::size_t>(size.x()) * size.y();
+  const int n = size[axis];
+  const double w = step * step;
+  std::vector<double> f(n);
+  std::vector<int> apex(n);             // the envelope's parabolas, by their apex
+  std::vector<double> from(n + 1);      // where each begins to be the lowest
+  const Eigen::Vector3i lines = size - Eigen::Vector3i::Unit(axis).cwiseProduct(size - Eigen::Vector3i::Ones());
+  for (int c = 0; c < lines.z(); ++c)
+    for (int b = 0; b < lines.y(); ++b)
+      for (int a = 0; a < lines.x(); ++a) {
+        const std::size_t first = a + size.x() * (static_cast<std::size_t>(b) + static_cast<std::size_t>(size.y()) * c);
+        int parabolas = 0;
+        for (int q = 0; q < n; ++q) {
+          f[q] = (*values)[first + q * stride];
+          if (!std::isfinite(f[q])) continue;
+          while (parabolas > 0) {
+            const int v = apex[parabolas - 1];
+            const double meet = ((f[q] + w * q * q) - (f[v] + w * v * v)) / (2 * w * (q - v));
+            if (meet > from[parabolas - 1]) {
+              from[parabolas] = meet;
+              break;
+            }
+            --parabolas;
+          }
+          if (parabolas == 0) from[0] = -std::numeric_limits<double>::infinity();
+          apex[parabolas++] = q;
+        }
+        if (parabolas == 0) continue;  // nothing along this line: infinite throughout
+        from[parabolas] = std::numeric_limits<double>::infinity();
+        for (int q = 0, j = 0; q < n; ++q) {
+          while (from[j + 1] < q) ++j;
+          const double d = q - apex[j];
+          (*values)[first + q * stride] = w * d * d + f[apex[j]];
+        }
+      }
+}
+
+// The Euclidean distance (mm) from each voxel of a box to the nearest voxel
+// where `inside` is set (0 there); infinite when none is.
+std::vector<double> DistanceTo(const std::vector<std::uint8_t>& inside, const Eigen::Vector3i& size,
+                               const Eigen::Vector3d& spacing_mm) {
+  std::vector<double> d(inside.size());
+  for (std::size_t v = 0; v < inside.size(); ++v) d[v] = inside[v] ? 0.0 : std::numeric_limits<double>::infinity();
+  for (int axis = 0; axis < 3; ++axis) SquaredDistanceAlong(axis, spacing_mm[axis], size, &d);
+  for (double& x : d) x = std::sqrt(x);
+  return d;
+}
+
+}  // namespace
+
 VoxelMask ClosedSolid(const VoxelMask& mask, double radius_mm) {
-  MaskImage::Pointer image = NewImage<MaskImage>(mask.size);
-  std::copy(mask.inside.begin(), mask.inside.end(), image->GetBufferPointer());
+  // Closing through two exact Euclidean distance maps (dilate: within
+  // radius_mm of the mask; erode: farther than radius_mm from what the
+  // dilation left out) costs the same for any radius, where a ball
+  // structuring element costs its volume per voxel (23 voxels across at 16 mm
+  // on a 0.7 mm grid), and is a true ball in mm on anisotropic grids. It works
+  // on the mask's bounding box padded by the radius and a voxel, so its cost
+  // follows the organ, not the CT; nothing grows in from beyond the grid.
+  const Eigen::Vector3d spacing_mm = 1e3 * mask.spacing_m;
+  const Eigen::Vector3i reach = (radius_mm / spacing_mm.array()).ceil().cast<int>() + 1;
+  const auto [lo, hi] = InsideBounds(mask);
+  if (hi.x() < 0) return mask;
+  const Box padded{lo - reach, hi - lo + Eigen::Vector3i::Ones() + 2 * reach};
+  const Box grid{Eigen::Vector3i::Zero(), mask.size};
+  auto for_each_grid_voxel = [&](auto&& f) {  // f(index in padded, index in the mask's grid)
+    std::size_t local = 0;
+    for (int k = 0; k < padded.size.z(); ++k)
+      for (int j = 0; j < padded.size.y(); ++j)
+        for (int i = 0; i < padded.size.x(); ++i, ++local) {
+          const Eigen::Vector3i g = padded.start + Eigen::Vector3i(i, j, k);
+          if (grid.Contains(g)) f(local, mask.Index(g.x(), g.y(), g.z()));
+        }
+  };
+  std::vector<std::uint8_t> v(padded.num_voxels(), 0);
+  for_each_grid_voxel([&](std::size_t local, std::size_t global) { v[local] = mask.inside[global]; });
+  std::vector<double> d = DistanceTo(v, padded.size, spacing_mm);
+  for (std::size_t i = 0; i < v.size(); ++i) v[i] = d[i] > radius_mm;  // what the dilation leaves out
+  d = DistanceTo(v, padded.size, spacing_mm);
+  MaskImage::Pointer image = NewImage<MaskImage>(padded.size);
+  std::uint8_t* closed_box = image->GetBufferPointer();
+  for (std::size_t i = 0; i < v.size(); ++i) closed_box[i] = d[i] > radius_mm;  // eroded: farther than r from it
   try {
-    image = FillHoles(Close(image, RadiusVoxels(radius_mm, mask.spacing_m)));
+    image = FillHoles(image);
   } catch (const itk::ExceptionObject& e) {
-    throw Error(std::string("closing the organ's mask failed in ITK: ") + e.GetDescription(), "segmentation",
+    throw Error(std::string("filling the closed organ's holes failed in ITK: ") + e.GetDescription(), "segmentation",
                 "check the mask");
   }
   VoxelMask closed = mask;
-  std::copy(image->GetBufferPointer(), image->GetBufferPointer() + mask.num_voxels(), closed.inside.begin());
+  closed_box = image->GetBufferPointer();
+  for_each_grid_voxel([&](std::size_t local, std::size_t global) { closed.inside[global] = closed_box[local]; });
   return closed;
 }
 
