@@ -158,6 +158,10 @@ void AddPreopCommand(CLI::App& app) {
   command->add_option("--grid-mm", o.motion.grid_spacing_mm, "B-spline control-point spacing at the finest level, mm")
       ->capture_default_str();
   command->add_option("--levels", o.motion.levels, "B-spline registration levels, coarse to fine")->capture_default_str();
+  command->add_option("--sample-mm", o.motion.finest_sample_mm,
+                      "B-spline registration: the finest level compares voxels about this far apart at least (every "
+                      "second or third voxel of a finer scan, after a blur of half that step), mm")
+      ->capture_default_str();
   command->add_option("--iterations", o.motion.max_iterations, "B-spline registration: L-BFGS iterations per level")
       ->capture_default_str();
   command->add_option("--bending-weight", o.motion.bending_weight,

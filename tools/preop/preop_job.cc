@@ -10,6 +10,7 @@
 
 #include <fmt/format.h>
 #include <opencv2/imgcodecs.hpp>
+#include <Eigen/Geometry>
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
@@ -41,9 +42,11 @@ namespace {
 // finishes; with options.resume, those the cache holds are taken from it.
 // Result 0 is the identity.
 std::vector<stages::preop::PhaseDeformation> RegisterPhasesAtOnce(const std::vector<io::CtImage>& phases,
-                                                                  const PreopOptions& options, int* from_cache) {
+                                                                  const PreopOptions& options,
+                                                                  const stages::preop::MotionRegistrationOptions& motion,
+                                                                  int* from_cache) {
   stages::preop::CheckPhases(phases);
-  const RegistrationCache cache(options.out_dir + "/cache", phases, options.motion);
+  const RegistrationCache cache(options.out_dir + "/cache", phases, motion);
   std::vector<stages::preop::PhaseDeformation> deformations(phases.size());
   std::vector<int> to_register;
   for (int k = 1; k < static_cast<int>(phases.size()); ++k) {
@@ -62,7 +65,7 @@ std::vector<stages::preop::PhaseDeformation> RegisterPhasesAtOnce(const std::vec
   arena.execute([&] {
     tbb::parallel_for(0, static_cast<int>(to_register.size()), [&](int i) {
       const int k = to_register[i];
-      deformations[k] = stages::preop::RegisterPhase(phases, k, options.motion);
+      deformations[k] = stages::preop::RegisterPhase(phases, k, motion);
       cache.Save(k, deformations[k]);
       if (!options.progress) return;
       const stages::preop::PhaseRegistrationReport& phase = deformations[k].report();
@@ -97,13 +100,16 @@ SolidAndSurface SolidOrgan(const stages::preop::VoxelMask& segmented, const stag
   *closing_mm = 0;
   try {
     return {segmented, stages::preop::ExtractSurface(segmented, options, report)};
-  } catch (const stages::preop::NotASolidBall&) {
+  } catch (const stages::preop::NotASolidBall& as_segmented) {
+    std::string closings;
     for (const double radius_mm : kTunnelClosings_mm) {
       stages::preop::VoxelMask closed = stages::preop::ClosedSolid(segmented, radius_mm);
       io::SurfaceMesh surface;
       try {
         surface = stages::preop::ExtractSurface(closed, options, report);
-      } catch (const stages::preop::NotASolidBall&) {
+      } catch (const stages::preop::NotASolidBall& e) {
+        const std::string& attempts = e.problem();  // its last line: the most blurred attempt
+        closings += fmt::format("\n  closed by {:g} mm, then{}", radius_mm, attempts.substr(attempts.rfind('\n') + 2));
         continue;
       }
       Logger("tools").warn("the organ's mask is not one solid ball (tunnels, or pieces the blur joins); closed by a "
@@ -112,7 +118,12 @@ SolidAndSurface SolidOrgan(const stages::preop::VoxelMask& segmented, const stag
       *closing_mm = radius_mm;
       return {std::move(closed), std::move(surface)};
     }
-    throw;
+    throw stages::preop::NotASolidBall(
+        as_segmented.problem() + "\nnor after closing the mask to fill tunnels:" + closings, as_segmented.where(),
+        fmt::format("the mask holds pieces or tunnels wider than {:g} mm (a label that takes in neighbouring "
+                    "organs?): check it in 3D Slicer (segmentation.nii.gz), restrict it (--roi, --seed-point), or "
+                    "fill them in the label map",
+                    kTunnelClosings_mm[std::size(kTunnelClosings_mm) - 1]));
   }
 }
 
@@ -210,7 +221,7 @@ std::string PreopOptions::Validate() const {
   if (ct_inputs.empty()) return "give the CT: a DICOM folder of every phase, a folder per phase or a file per phase";
   if (out_dir.empty()) return "give --out";
   if (!(period_s > 0) && like_scene.empty()) {
-    return "give the CT's cardiac period (--period-s), or a scene to take it from (--like)";
+    return "give the CT's cycle in seconds, a heartbeat or a breath (--period-s), or a scene to take it from (--like)";
   }
   if (period_s < 0) return "the period must be positive";
   if (threads < 0) return "threads must be 0 (TBB's default) or more, got " + std::to_string(threads);
@@ -424,8 +435,19 @@ PreopSummary RunPreop(const PreopOptions& options) {
                            options.beads.Describe());
     }
 
-    const std::vector<stages::preop::PhaseDeformation> deformations = steps.Run(
-        "B-spline motion", [&] { return RegisterPhasesAtOnce(phases, options, &summary.phases_from_cache); });
+    // The motion is wanted at the mesh's nodes and the fiducials only: the
+    // registration works on their box (and a margin), not the whole scan.
+    stages::preop::MotionRegistrationOptions motion = options.motion;
+    Eigen::AlignedBox3d wanted;
+    for (Eigen::Index n = 0; n < mesh.X_m.cols(); ++n) wanted.extend(mesh.X_m.col(n));
+    if (beads.num_fiducials() > 0) {
+      for (Eigen::Index f = 0; f < beads.positions_S_m[0].cols(); ++f) wanted.extend(beads.positions_S_m[0].col(f));
+    }
+    motion.region_min_S_m = wanted.min();
+    motion.region_max_S_m = wanted.max();
+    const std::vector<stages::preop::PhaseDeformation> deformations = steps.Run("B-spline motion", [&] {
+      return RegisterPhasesAtOnce(phases, options, motion, &summary.phases_from_cache);
+    });
     for (const auto& deformation : deformations) summary.registration.push_back(deformation.report());
 
     const int P = summary.phases, F = beads.num_fiducials(), N = mesh.num_nodes();

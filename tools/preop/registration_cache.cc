@@ -6,6 +6,7 @@
 #include <mutex>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include "io/h5_file.h"
 #include "sim/error.h"
@@ -33,16 +34,21 @@ std::string HashOf(const io::CtImage& image) {
   return fmt::format("{:016x}", hash);
 }
 
-std::string OptionsText(const stages::preop::MotionRegistrationOptions& o) {
-  return fmt::format("grid {:.17g} mm, levels {}, iterations {}, metric {}, bending {:.17g}", o.grid_spacing_mm,
-                     o.levels, o.max_iterations, static_cast<int>(o.metric), o.bending_weight);
+std::string OptionsText(const stages::preop::MotionRegistrationOptions& o, const io::CtImage& grid) {
+  return fmt::format("grid {:.17g} mm, levels {}, iterations {}, metric {}, bending {:.17g}, samples {:.17g} mm, "
+                     "on {} voxels from ({:.17g}, {:.17g}, {:.17g}) m",
+                     o.grid_spacing_mm, o.levels, o.max_iterations, static_cast<int>(o.metric), o.bending_weight,
+                     o.finest_sample_mm, fmt::join(grid.size, " x "), grid.origin_m.x(), grid.origin_m.y(),
+                     grid.origin_m.z());
 }
 
 }  // namespace
 
 RegistrationCache::RegistrationCache(std::string folder, const std::vector<io::CtImage>& phases,
                                      const stages::preop::MotionRegistrationOptions& options)
-    : folder_(std::move(folder)), phases_(&phases), options_text_(OptionsText(options)) {
+    : folder_(std::move(folder)),
+      grid_(stages::preop::RegistrationGrid(phases.at(0), options)),
+      options_text_(OptionsText(options, grid_)) {
   std::filesystem::create_directories(folder_);
   for (const io::CtImage& phase : phases) phase_hashes_.push_back(HashOf(phase));
 }
@@ -74,7 +80,7 @@ std::optional<stages::preop::PhaseDeformation> RegistrationCache::Load(int k) co
     report.wall_s = file.ReadAttribute<double>("/", "wall_s");
     report.stop_condition = "cached in " + path;
     return stages::preop::PhaseDeformation::FromParameters(file.Read<double>("/fixed_parameters"),
-                                                          file.Read<double>("/parameters"), (*phases_)[0], report);
+                                                          file.Read<double>("/parameters"), grid_, report);
   } catch (const Error& e) {
     Logger("tools").warn("phase {}: the cached registration does not read ({}); registering again", k, e.what());
     return std::nullopt;

@@ -31,7 +31,7 @@ class RegistrationCache {
   std::string KeyOf(int k) const;
 
   std::string folder_;
-  const std::vector<io::CtImage>* phases_;
+  io::CtImage grid_;  // the registration's (RegistrationGrid), no values
   std::string options_text_;
   std::vector<std::string> phase_hashes_;
 };

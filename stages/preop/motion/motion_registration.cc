@@ -28,7 +28,7 @@
 #include <itkMeanSquaresImageToImageMetric.h>
 #include <itkMinimumMaximumImageCalculator.h>
 #include <itkSingleValuedCostFunction.h>
-#include <itkSmoothingRecursiveGaussianImageFilter.h>
+#include <itkRecursiveGaussianImageFilter.h>
 #include <itkTransformToDisplacementFieldFilter.h>
 
 #include "sim/cubic_bspline.h"
@@ -47,16 +47,17 @@ using Image = itk::Image<float, kDim>;
 using BSpline = itk::BSplineTransform<double, kDim, kSplineOrder>;
 using VectorImage = itk::Image<itk::Vector<float, kDim>, kDim>;
 
-Image::Pointer ToItkImage(const io::CtImage& ct) {
+// The voxels of `ct` on `grid`, a box of ct's own grid (RegistrationGrid).
+Image::Pointer ToItkImage(const io::CtImage& ct, const io::CtImage& grid) {
   Image::RegionType region;
   Image::SpacingType spacing;
   Image::PointType origin;
   Image::DirectionType direction;
   for (unsigned d = 0; d < kDim; ++d) {
-    region.SetSize(d, ct.size[d]);
-    spacing[d] = ct.spacing_m[d] * kMmPerM;
-    origin[d] = ct.origin_m[d] * kMmPerM;
-    for (unsigned e = 0; e < kDim; ++e) direction(d, e) = ct.direction(d, e);
+    region.SetSize(d, grid.size[d]);
+    spacing[d] = grid.spacing_m[d] * kMmPerM;
+    origin[d] = grid.origin_m[d] * kMmPerM;
+    for (unsigned e = 0; e < kDim; ++e) direction(d, e) = grid.direction(d, e);
   }
   Image::Pointer image = Image::New();
   image->SetRegions(region);
@@ -64,9 +65,17 @@ Image::Pointer ToItkImage(const io::CtImage& ct) {
   image->SetOrigin(origin);
   image->SetDirection(direction);
   image->Allocate();
-  std::copy(ct.values.begin(), ct.values.end(), image->GetBufferPointer());
+  const Eigen::Vector3i first =
+      ((ct.direction * ct.spacing_m.asDiagonal()).inverse() * (grid.origin_m - ct.origin_m)).array().round().cast<int>();
+  float* out = image->GetBufferPointer();
+  for (int k = 0; k < grid.size.z(); ++k)
+    for (int j = 0; j < grid.size.y(); ++j) {
+      const float* row = &ct.values[ct.Index(first.x(), first.y() + j, first.z() + k)];
+      out = std::copy(row, row + grid.size.x(), out);
+    }
   return image;
 }
+Image::Pointer ToItkImage(const io::CtImage& ct) { return ToItkImage(ct, ct); }
 
 // Index i mirrored into [0, n - 1] about the end samples (ITK's boundary
 // condition for B-spline interpolation). @pre -(n - 1) <= i <= 2 (n - 1).
@@ -460,19 +469,26 @@ std::pair<double, double> JacobianRange(const BSpline::Pointer& transform, const
   return {range->GetMinimum(), range->GetMaximum()};
 }
 
-Image::Pointer Smoothed(const Image::Pointer& image, double sigma_voxels) {
-  if (sigma_voxels <= 0) return image;
-  using Filter = itk::SmoothingRecursiveGaussianImageFilter<Image, Image>;
-  const Filter::Pointer filter = Filter::New();
-  filter->SetInput(image);
-  // sigma_voxels along every axis: an anisotropic CT's slice axis smoothed by
-  // as many of its own (longer) voxels as the others.
-  Filter::SigmaArrayType sigma;
-  for (unsigned d = 0; d < kDim; ++d) sigma[d] = sigma_voxels * image->GetSpacing()[d];
-  filter->SetSigmaArray(sigma);
-  filter->SetNumberOfWorkUnits(1);
-  filter->Update();
-  return filter->GetOutput();
+// Sampling factors along each axis: every factor-th voxel.
+using Factors = std::array<unsigned, kDim>;
+
+// Smoothed by half a sampling factor along each axis, so that the samples
+// taken at that factor do not alias (none along an axis sampled fully).
+Image::Pointer Smoothed(Image::Pointer image, const Factors& factors) {
+  for (unsigned d = 0; d < kDim; ++d) {
+    if (factors[d] == 1) continue;
+    using Filter = itk::RecursiveGaussianImageFilter<Image, Image>;
+    const Filter::Pointer filter = Filter::New();
+    filter->SetInput(image);
+    filter->SetDirection(d);
+    filter->SetSigma(0.5 * factors[d] * image->GetSpacing()[d]);
+    filter->SetZeroOrder();
+    filter->SetNumberOfWorkUnits(1);
+    filter->Update();
+    image = filter->GetOutput();
+    image->DisconnectPipeline();
+  }
+  return image;
 }
 
 // Every factor-th voxel along each axis, each sample placed at the voxel it
@@ -483,16 +499,17 @@ Image::Pointer Smoothed(const Image::Pointer& image, double sigma_voxels) {
 // 4m + 2 at factor 4) every sample lies half a voxel from the voxel it holds,
 // and the fixed image of each shrunk level is shifted by half a voxel along
 // that axis (1.5 mm on a 3 mm CT), which the finest level only partly undoes.
-Image::Pointer Shrunk(const Image::Pointer& image, unsigned factor) {
-  if (factor == 1) return image;
+Image::Pointer Shrunk(const Image::Pointer& image, const Factors& factors) {
+  if (*std::max_element(factors.begin(), factors.end()) == 1) return image;
   const Image::RegionType& region = image->GetBufferedRegion();
   Image::RegionType shrunk_region;
   Image::IndexType first;
   Image::SpacingType spacing = image->GetSpacing();
   for (unsigned d = 0; d < kDim; ++d) {
+    const long factor = factors[d];
     const long voxels = static_cast<long>(region.GetSize(d));
-    const long samples = std::max(1L, voxels / long(factor));  // as many as ITK's filter takes
-    first[d] = region.GetIndex(d) + (voxels - 1 - (samples - 1) * long(factor)) / 2;
+    const long samples = std::max(1L, voxels / factor);  // as many as ITK's filter takes
+    first[d] = region.GetIndex(d) + (voxels - 1 - (samples - 1) * factor) / 2;
     shrunk_region.SetSize(d, samples);
     spacing[d] *= factor;
   }
@@ -506,20 +523,35 @@ Image::Pointer Shrunk(const Image::Pointer& image, unsigned factor) {
   shrunk->Allocate();
   for (itk::ImageRegionIteratorWithIndex<Image> it(shrunk, shrunk_region); !it.IsAtEnd(); ++it) {
     Image::IndexType source;
-    for (unsigned d = 0; d < kDim; ++d) source[d] = first[d] + long(factor) * it.GetIndex()[d];
+    for (unsigned d = 0; d < kDim; ++d) source[d] = first[d] + long(factors[d]) * it.GetIndex()[d];
     it.Set(image->GetPixel(source));
   }
   return shrunk;
 }
 
+// The finest level's sampling factors: the voxels along each axis, every
+// voxel where they are at least finest_sample_mm apart, and every second or
+// more where they are finer (a 0.6 mm in-plane grid is sampled at 1.2 mm).
+Factors FinestFactors(const Image::Pointer& image, const MotionRegistrationOptions& options) {
+  Factors factors;
+  for (unsigned d = 0; d < kDim; ++d) {
+    factors[d] = std::max(1u, static_cast<unsigned>(std::floor(options.finest_sample_mm / image->GetSpacing()[d] + 1e-9)));
+  }
+  return factors;
+}
+
+Factors Times(Factors factors, unsigned shrink) {
+  for (unsigned& f : factors) f *= shrink;
+  return factors;
+}
+
 // One level: the transform (already on this level's grid) optimised in place
-// against images smoothed by half the shrink factor (so the shrunk fixed grid
-// does not alias) and a fixed image shrunk to fewer samples.
+// against images smoothed by half the sampling factors (so the sampled fixed
+// grid does not alias) and the fixed image's voxels sampled at those factors.
 void RunLevel(const Image::Pointer& fixed, const Image::Pointer& moving, const BSpline::Pointer& transform,
-              unsigned shrink, const MotionRegistrationOptions& options, PhaseRegistrationReport* report) {
-  const double sigma_voxels = shrink > 1 ? 0.5 * shrink : 0.0;
+              const Factors& factors, const MotionRegistrationOptions& options, PhaseRegistrationReport* report) {
   const itk::SingleValuedCostFunction::Pointer metric =
-      MakeMetric(options.metric, Shrunk(Smoothed(fixed, sigma_voxels), shrink), Smoothed(moving, sigma_voxels), transform,
+      MakeMetric(options.metric, Shrunk(Smoothed(fixed, factors), factors), Smoothed(moving, factors), transform,
                  options.bending_weight);
   BSpline::ParametersType parameters = transform->GetParameters();
   ceres::GradientProblemSolver::Options solver;
@@ -567,7 +599,7 @@ BSpline::Pointer FitSpline(const Image::Pointer& fixed, const Image::Pointer& mo
       adaptor->SetRequiredTransformDomainMeshSize(mesh);
       adaptor->AdaptTransformParameters();
     }
-    RunLevel(fixed, moving, transform, shrink, options, report);
+    RunLevel(fixed, moving, transform, Times(FinestFactors(fixed, options), shrink), options, report);
   }
   return transform;
 }
@@ -612,6 +644,16 @@ void CheckPhases(const std::vector<io::CtImage>& phases) {
 std::string MotionRegistrationOptions::Validate() const {
   if (!(grid_spacing_mm > 0) || !std::isfinite(grid_spacing_mm)) {
     return "grid_spacing_mm must be a positive number of millimetres, got " + std::to_string(grid_spacing_mm);
+  }
+  if (!(finest_sample_mm > 0) || !std::isfinite(finest_sample_mm)) {
+    return "finest_sample_mm must be a positive number of millimetres, got " + std::to_string(finest_sample_mm);
+  }
+  if (region_min_S_m.has_value() != region_max_S_m.has_value()) {
+    return "region_min_S_m and region_max_S_m must be given together";
+  }
+  if (region_min_S_m && (!region_min_S_m->allFinite() || !region_max_S_m->allFinite() ||
+                         (region_min_S_m->array() > region_max_S_m->array()).any())) {
+    return "the region must have finite corners with region_min_S_m <= region_max_S_m on every axis";
   }
   if (levels < 1 || levels > 6) return "levels must be 1 to 6, got " + std::to_string(levels);
   if (max_iterations < 1) return "max_iterations must be at least 1, got " + std::to_string(max_iterations);
@@ -689,8 +731,11 @@ Eigen::Matrix3Xd PhaseDeformation::Displacements(const Eigen::Matrix3Xd& points_
     if ((index.array() < -kEdge - kOutsideReach_voxels).any() ||
         (index.array() > last + kEdge + kOutsideReach_voxels).any()) {
       std::ostringstream what;
-      what << "point " << i << " at " << points_S_m.col(i).transpose() << " m lies outside the CT's grid";
-      throw Error(what.str(), grid.source, "give points inside the phase-0 image (the mesh segmented from it)");
+      what << "point " << i << " at " << points_S_m.col(i).transpose()
+           << " m lies outside the grid the motion was registered on";
+      throw Error(what.str(), grid.source,
+                  "give points inside the phase-0 image (the mesh segmented from it) and inside the registration's "
+                  "region");
     }
     const Eigen::Vector3d within = index.array().max(-kEdge + 1e-9).min(last + kEdge - 1e-9).matrix();
     const Eigen::Vector3d point_m = grid.origin_m + grid.direction * grid.spacing_m.cwiseProduct(within);
@@ -700,6 +745,41 @@ Eigen::Matrix3Xd PhaseDeformation::Displacements(const Eigen::Matrix3Xd& points_
     for (unsigned d = 0; d < kDim; ++d) u(d, i) = (x[d] - X[d]) / kMmPerM;
   }
   return u;
+}
+
+io::CtImage RegistrationGrid(const io::CtImage& phase0, const MotionRegistrationOptions& options) {
+  if (const std::string problem = options.Validate(); !problem.empty()) {
+    throw Error(problem, "MotionRegistrationOptions", "set the option in range");
+  }
+  io::CtImage grid = phase0;
+  grid.values.clear();
+  if (!options.region_min_S_m) return grid;
+  const Eigen::Vector3d margin_m = Eigen::Vector3d::Constant(options.grid_spacing_mm / kMmPerM);
+  const Eigen::Vector3d lo_m = *options.region_min_S_m - margin_m, hi_m = *options.region_max_S_m + margin_m;
+  // The box's corners in voxel indices (any direction of the grid).
+  const Eigen::Matrix3d to_index = (phase0.direction * phase0.spacing_m.asDiagonal()).inverse();
+  Eigen::Array3d first = Eigen::Array3d::Constant(std::numeric_limits<double>::infinity()), last = -first;
+  for (int corner = 0; corner < 8; ++corner) {
+    const Eigen::Vector3d x(corner & 1 ? hi_m.x() : lo_m.x(), corner & 2 ? hi_m.y() : lo_m.y(),
+                            corner & 4 ? hi_m.z() : lo_m.z());
+    const Eigen::Array3d index = to_index * (x - phase0.origin_m);
+    first = first.min(index), last = last.max(index);
+  }
+  const Eigen::Array3i size = phase0.size.array();
+  if ((last < -0.5).any() || (first > size.cast<double>() - 0.5).any()) {
+    throw Error("the region to register misses the CT's grid", phase0.source,
+                "give a region (the organ's mesh and fiducials) inside the phase-0 image");
+  }
+  Eigen::Array3i lo = first.floor().cast<int>().max(0), hi = last.ceil().cast<int>().min(size - 1);
+  for (int d = 0; d < 3; ++d) {  // at least 4 voxels, for the cubic interpolant
+    while (hi[d] - lo[d] < 3 && (lo[d] > 0 || hi[d] < size[d] - 1)) {
+      if (lo[d] > 0) --lo[d];
+      if (hi[d] - lo[d] < 3 && hi[d] < size[d] - 1) ++hi[d];
+    }
+  }
+  grid.origin_m = phase0.PointOf(lo.x(), lo.y(), lo.z());
+  grid.size = (hi - lo + 1).matrix();
+  return grid;
 }
 
 PhaseDeformation RegisterPhase(const std::vector<io::CtImage>& phases, int k, const MotionRegistrationOptions& options) {
@@ -716,20 +796,22 @@ PhaseDeformation RegisterPhase(const std::vector<io::CtImage>& phases, int k, co
   report.phase = k;
   // Each call its own copies: ITK's pipeline writes into its inputs'
   // requested regions, so images are not shared between registrations.
-  const Image::Pointer fixed = ToItkImage(phases[0]);
-  const Image::Pointer moving = ToItkImage(phases[k]);
   auto spline = std::make_shared<PhaseDeformation::Spline>();
-  spline->grid = phases[0];
-  spline->grid.values.clear();
+  spline->grid = RegistrationGrid(phases[0], options);
+  const Image::Pointer fixed = ToItkImage(phases[0], spline->grid);
+  const Image::Pointer moving = ToItkImage(phases[k], spline->grid);
   try {
     spline->transform = FitSpline(fixed, moving, options, &report);
     const BSpline::ParametersType result = spline->transform->GetParameters();
     const BSpline::ParametersType identity(result.Size(), 0.0);
-    const auto full = MakeMetric(options.metric, fixed, moving, spline->transform, /*bending_weight=*/0);
-    report.metric_before = full->GetValue(identity);
-    report.metric_after = full->GetValue(result);
+    const Factors finest = FinestFactors(fixed, options);
+    const Image::Pointer fixed_samples = Shrunk(Smoothed(fixed, finest), finest);
+    const auto metric =
+        MakeMetric(options.metric, fixed_samples, Smoothed(moving, finest), spline->transform, /*bending_weight=*/0);
+    report.metric_before = metric->GetValue(identity);
+    report.metric_after = metric->GetValue(result);
     spline->transform->SetParametersByValue(result);
-    std::tie(report.min_jacobian, report.max_jacobian) = JacobianRange(spline->transform, fixed);
+    std::tie(report.min_jacobian, report.max_jacobian) = JacobianRange(spline->transform, fixed_samples);
   } catch (const itk::ExceptionObject& e) {
     throw Error(std::string("ITK failed to register the phase: ") + e.GetDescription(),
                 "phase " + std::to_string(k) + " (" + phases[k].source + ")",

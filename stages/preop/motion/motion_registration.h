@@ -1,6 +1,7 @@
 #pragma once
 
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -31,18 +32,36 @@ struct MotionRegistrationOptions {
   int max_iterations = 30;        // L-BFGS iterations per level
   MotionMetric metric = MotionMetric::kMeanSquares;
   double bending_weight = 0;      // HU^2 per mm^2 of the control points' mean squared second difference (mean squares only)
+  // The finest level compares every voxel along an axis whose voxels are at
+  // least this far apart, and every second (third, ...) voxel along finer
+  // axes, after a blur of half that step. A control grid of 16 mm is fitted
+  // as well from samples 3 mm apart (over 100 to a control point's cell) as
+  // from every voxel of a fine scan, at a fraction of the cost, and the blur
+  // keeps the metric from fitting noise (docs/preop.md, "Motion").
+  double finest_sample_mm = 3.0;
+  // Where the motion is wanted (S, metres; both or neither): the phases are
+  // registered on phase 0's voxels within this box grown by one finest
+  // control-point spacing on each side (docs/preop.md, "Motion"), so the cost
+  // follows the organ, not the scanner's field of view. Unset: the whole grid.
+  std::optional<Eigen::Vector3d> region_min_S_m, region_max_S_m;
 
   std::string Validate() const;  // empty when valid
 };
 
+// The part of phase 0's grid the registration works on and its deformation
+// is defined over: the voxels of options' region grown by its margin, at
+// least 4 along each axis; the whole grid without a region. No values.
+// @throws dg::Error when the region misses the grid.
+io::CtImage RegistrationGrid(const io::CtImage& phase0, const MotionRegistrationOptions& options);
+
 // Figures of one phase's registration, for a report.
 struct PhaseRegistrationReport {
   int phase = 0;
-  double metric_before = 0;  // the metric (MotionMetric; HU^2 or nats) at the identity, on the full-resolution images
+  double metric_before = 0;  // the metric (MotionMetric; HU^2 or nats) at the identity, on the finest level's samples
   double metric_after = 0;   // and at the result
   int iterations = 0;        // L-BFGS iterations, all levels
   int evaluations = 0;       // of the metric and its gradient, all levels (line searches included)
-  double min_jacobian = 1;   // det of the deformation's Jacobian over the phase-0 image's voxels
+  double min_jacobian = 1;   // det of the deformation's Jacobian over the finest level's samples
   double max_jacobian = 1;
   double wall_s = 0;
   std::string stop_condition;  // the optimiser's, at the finest level
