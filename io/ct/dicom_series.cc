@@ -1,7 +1,9 @@
 #include "io/ct/dicom_series.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
+#include <filesystem>
 
 #include <itkGDCMImageIO.h>
 #include <itkGDCMSeriesFileNames.h>
@@ -76,6 +78,13 @@ DicomSeries ReadDicomFileTags(const std::string& file) {
 
 std::vector<DicomSeries> ListDicomSeries(const std::string& folder) {
   RegisterItkImageIo();
+  // A folder of per-phase subfolders holds no file itself: nothing for GDCM,
+  // which would print a warning of its own to the terminal.
+  std::error_code error;
+  const bool has_files = std::any_of(std::filesystem::directory_iterator(folder, error),
+                                     std::filesystem::directory_iterator(),
+                                     [](const auto& entry) { return entry.is_regular_file(); });
+  if (!has_files) return {};
   auto names = itk::GDCMSeriesFileNames::New();
   names->SetUseSeriesDetails(false);
   names->SetRecursive(false);
