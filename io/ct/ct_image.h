@@ -39,6 +39,24 @@ struct CtImage {
   // (CtIntensity::kNotHu), or a label map. Automatic segmentation needs HU.
   bool values_are_hu = true;
 
+  // Everything but the values: a grid to keep without its voxels' memory (a
+  // copy with its values cleared would keep their capacity).
+  CtImage GridOnly() const {
+    CtImage grid;
+    grid.size = size;
+    grid.spacing_m = spacing_m;
+    grid.origin_m = origin_m;
+    grid.direction = direction;
+    grid.source = source;
+    grid.series_uid = series_uid;
+    grid.modality = modality;
+    grid.cycle_fraction = cycle_fraction;
+    grid.reoriented_from = reoriented_from;
+    grid.oblique_angle_deg = oblique_angle_deg;
+    grid.values_are_hu = values_are_hu;
+    return grid;
+  }
+
   std::size_t num_voxels() const { return static_cast<std::size_t>(size.x()) * size.y() * size.z(); }
   std::size_t Index(int i, int j, int k) const {
     return static_cast<std::size_t>(i) + size.x() * (static_cast<std::size_t>(j) + static_cast<std::size_t>(size.y()) * k);

@@ -693,8 +693,7 @@ PhaseDeformation PhaseDeformation::FromParameters(const std::vector<double>& fix
                                                   const std::vector<double>& parameters, const io::CtImage& grid,
                                                   PhaseRegistrationReport report) {
   auto spline = std::make_shared<Spline>();
-  spline->grid = grid;
-  spline->grid.values.clear();
+  spline->grid = grid.GridOnly();
   spline->transform = BSpline::New();
   try {
     BSpline::FixedParametersType fixed(fixed_parameters.size());
@@ -751,8 +750,7 @@ io::CtImage RegistrationGrid(const io::CtImage& phase0, const MotionRegistration
   if (const std::string problem = options.Validate(); !problem.empty()) {
     throw Error(problem, "MotionRegistrationOptions", "set the option in range");
   }
-  io::CtImage grid = phase0;
-  grid.values.clear();
+  io::CtImage grid = phase0.GridOnly();
   if (!options.region_min_S_m) return grid;
   const Eigen::Vector3d margin_m = Eigen::Vector3d::Constant(options.grid_spacing_mm / kMmPerM);
   const Eigen::Vector3d lo_m = *options.region_min_S_m - margin_m, hi_m = *options.region_max_S_m + margin_m;
