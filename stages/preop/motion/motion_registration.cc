@@ -746,13 +746,21 @@ Eigen::Matrix3Xd PhaseDeformation::Displacements(const Eigen::Matrix3Xd& points_
   return u;
 }
 
+// The region's margin, in finest control spacings. A cubic B-spline moves a
+// point with the control points within two spacings of it; two spacings of
+// image beyond the outermost point give each of those control points its
+// whole support of samples. With one, control points half outside the image
+// were held by half their samples, and the real abdominal CT's worst node
+// (at the region's edge) moved from 0.36 to 1.4 mm.
+constexpr double kRegionMarginSpacings = 2;
+
 io::CtImage RegistrationGrid(const io::CtImage& phase0, const MotionRegistrationOptions& options) {
   if (const std::string problem = options.Validate(); !problem.empty()) {
     throw Error(problem, "MotionRegistrationOptions", "set the option in range");
   }
   io::CtImage grid = phase0.GridOnly();
   if (!options.region_min_S_m) return grid;
-  const Eigen::Vector3d margin_m = Eigen::Vector3d::Constant(options.grid_spacing_mm / kMmPerM);
+  const Eigen::Vector3d margin_m = Eigen::Vector3d::Constant(kRegionMarginSpacings * options.grid_spacing_mm / kMmPerM);
   const Eigen::Vector3d lo_m = *options.region_min_S_m - margin_m, hi_m = *options.region_max_S_m + margin_m;
   // The box's corners in voxel indices (any direction of the grid).
   const Eigen::Matrix3d to_index = (phase0.direction * phase0.spacing_m.asDiagonal()).inverse();

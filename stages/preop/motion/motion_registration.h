@@ -37,11 +37,11 @@ struct MotionRegistrationOptions {
   // axes, after a blur of half that step. A control grid of 16 mm is fitted
   // as well from samples 3 mm apart (over 100 to a control point's cell) as
   // from every voxel of a fine scan, at a fraction of the cost, and the blur
-  // keeps the metric from fitting noise (docs/preop.md, "Motion").
+  // keeps the metric from fitting noise (docs/preop.md, "Where and how densely").
   double finest_sample_mm = 3.0;
   // Where the motion is wanted (S, metres; both or neither): the phases are
-  // registered on phase 0's voxels within this box grown by one finest
-  // control-point spacing on each side (docs/preop.md, "Motion"), so the cost
+  // registered on phase 0's voxels within this box grown by two finest
+  // control-point spacings on each side (docs/preop.md, "Where and how densely"), so the cost
   // follows the organ, not the scanner's field of view. Unset: the whole grid.
   std::optional<Eigen::Vector3d> region_min_S_m, region_max_S_m;
 

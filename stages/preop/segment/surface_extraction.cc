@@ -58,15 +58,18 @@ void BlurAlong(int axis, double sigma, const Eigen::Vector3i& size, std::vector<
   }
 }
 
-// The grid flying edges works on: the mask's voxels averaged in blocks of
-// factors voxels (the fraction of each block inside; factors 1: the mask
-// itself), and where each block's centre lies in S.
+// The grid flying edges works on: the voxels of the mask's bounding box
+// (its inside voxels' box; beyond it the mask is empty, as the padding
+// beyond the grid is, so the cost follows the organ, not the CT) averaged in
+// blocks of factors voxels, each holding the fraction of its voxels inside
+// (factors 1: the mask's voxels themselves).
 struct ExtractionImage {
   Eigen::Vector3i size = Eigen::Vector3i::Zero();
   Eigen::Vector3i factors = Eigen::Vector3i::Ones();
-  std::vector<float> fraction;  // x fastest
+  Eigen::Vector3i first_voxel = Eigen::Vector3i::Zero();  // the box's first voxel, in the mask's grid
+  std::vector<float> fraction;                            // x fastest
   std::size_t voxels_inside = 0;
-  VoxelMask geometry;           // the blocks' grid (PointOf); no voxels
+  VoxelMask grid;  // the mask's grid (PointOf), no voxels
 };
 
 // Triangles flying edges may make per triangle kept: the decimation then
@@ -78,12 +81,12 @@ constexpr double kExtractedPerKept = 20;
 // triangles; h is chosen for kExtractedPerKept times the target, and never
 // below the voxels (the phantom's 1 mm heart keeps its voxels; a 0.6 mm scan
 // of a liver is taken in blocks of 2 x 2 x 1).
-Eigen::Vector3i BlockFactors(const VoxelMask& mask, int target_triangles) {
+Eigen::Vector3i BlockFactors(const VoxelMask& mask, const VoxelBounds& box, int target_triangles) {
   const Eigen::Vector3d spacing_mm = 1e3 * mask.spacing_m;
   double area_mm2 = 0;  // of the voxels' faces between inside and outside: the staircase's area
-  for (int k = 0; k < mask.size.z(); ++k)
-    for (int j = 0; j < mask.size.y(); ++j)
-      for (int i = 0; i < mask.size.x(); ++i) {
+  for (int k = box.first.z(); k <= box.last.z(); ++k)
+    for (int j = box.first.y(); j <= box.last.y(); ++j)
+      for (int i = box.first.x(); i <= box.last.x(); ++i) {
         const bool in = mask.inside[mask.Index(i, j, k)];
         const Eigen::Vector3i v(i, j, k);
         for (int axis = 0; axis < 3; ++axis) {
@@ -97,31 +100,34 @@ Eigen::Vector3i BlockFactors(const VoxelMask& mask, int target_triangles) {
   return (h_mm / spacing_mm.array()).floor().cast<int>().max(1);
 }
 
-ExtractionImage BlockFractions(const VoxelMask& mask, const Eigen::Vector3i& factors) {
+ExtractionImage BlockFractions(const VoxelMask& mask, const VoxelBounds& box, const Eigen::Vector3i& factors) {
   ExtractionImage image;
   image.factors = factors;
-  image.size = (mask.size.array() + factors.array() - 1) / factors.array();
+  image.first_voxel = box.first;
+  image.size = (box.last - box.first + factors).array() / factors.array();
   image.fraction.assign(static_cast<std::size_t>(image.size.x()) * image.size.y() * image.size.z(), 0.0f);
-  const float weight = 1.0f / static_cast<float>(factors.prod());  // voxels beyond the grid count as outside
-  for (int k = 0; k < mask.size.z(); ++k)
-    for (int j = 0; j < mask.size.y(); ++j)
-      for (int i = 0; i < mask.size.x(); ++i) {
+  const float weight = 1.0f / static_cast<float>(factors.prod());  // voxels beyond the box count as outside
+  for (int k = box.first.z(); k <= box.last.z(); ++k)
+    for (int j = box.first.y(); j <= box.last.y(); ++j)
+      for (int i = box.first.x(); i <= box.last.x(); ++i) {
         if (!mask.inside[mask.Index(i, j, k)]) continue;
         ++image.voxels_inside;
-        const Eigen::Vector3i b = Eigen::Vector3i(i, j, k).array() / factors.array();
+        const Eigen::Vector3i b = (Eigen::Vector3i(i, j, k) - box.first).array() / factors.array();
         image.fraction[b.x() + image.size.x() * (static_cast<std::size_t>(b.y()) + static_cast<std::size_t>(image.size.y()) * b.z())] += weight;
       }
-  image.geometry.size = image.size;
-  image.geometry.spacing_m = mask.spacing_m.cwiseProduct(factors.cast<double>());
-  const Eigen::Vector3d first_centre = 0.5 * (factors.cast<double>() - Eigen::Vector3d::Ones());
-  image.geometry.origin_m = mask.PointOf(first_centre.x(), first_centre.y(), first_centre.z());
-  image.geometry.direction = mask.direction;
+  image.grid.size = mask.size;
+  image.grid.spacing_m = mask.spacing_m;
+  image.grid.origin_m = mask.origin_m;
+  image.grid.direction = mask.direction;
   return image;
 }
 
-// The image in block-index coordinates (spacing 1), padded by `pad` empty
-// blocks so that point (i, j, k) of the output is block (i, j, k), blurred
-// along each axis by sigma_blocks (0: not at all).
+// The blocks as VTK's image, padded by `pad` empty blocks and blurred along
+// each axis by sigma_blocks (0: not at all), placed in the mask's voxel
+// indices (a block at its voxels' centre): VTK's image has no direction, so
+// its points are voxel indices, mapped to S by the mask's grid. On blocks of
+// one voxel every point then comes out as from the whole grid, to the bit,
+// and one scan on grids whose origins differ in the last digit meshes alike.
 vtkSmartPointer<vtkImageData> PaddedImage(const ExtractionImage& in, int pad, const Eigen::Vector3d& sigma_blocks) {
   const Eigen::Vector3i padded = in.size.array() + 2 * pad;
   std::vector<float> values(padded.cast<std::size_t>().prod(), 0.0f);
@@ -138,15 +144,20 @@ vtkSmartPointer<vtkImageData> PaddedImage(const ExtractionImage& in, int pad, co
   }
   auto image = vtkSmartPointer<vtkImageData>::New();
   image->SetDimensions(padded.x(), padded.y(), padded.z());
-  image->SetOrigin(-pad, -pad, -pad);
-  image->SetSpacing(1, 1, 1);
+  double origin[3], spacing[3];
+  for (int d = 0; d < 3; ++d) {
+    spacing[d] = in.factors[d];
+    origin[d] = in.first_voxel[d] + 0.5 * (in.factors[d] - 1) - pad * spacing[d];
+  }
+  image->SetOrigin(origin);
+  image->SetSpacing(spacing);
   image->AllocateScalars(VTK_FLOAT, 1);
   std::copy(values.begin(), values.end(), static_cast<float*>(image->GetScalarPointer()));
   return image;
 }
 
 // The polygons' used points mapped to S, renumbered in order of first use.
-io::SurfaceMesh ToSurfaceMesh(vtkPolyData* poly, const VoxelMask& mask) {
+io::SurfaceMesh ToSurfaceMesh(vtkPolyData* poly, const ExtractionImage& blocks) {
   vtkCellArray* polys = poly->GetPolys();
   io::SurfaceMesh surface;
   surface.triangles.resize(3, polys->GetNumberOfCells());
@@ -166,26 +177,9 @@ io::SurfaceMesh ToSurfaceMesh(vtkPolyData* poly, const VoxelMask& mask) {
   for (std::size_t v = 0; v < used.size(); ++v) {
     double ijk[3];
     poly->GetPoint(used[v], ijk);
-    surface.vertices_m.col(v) = mask.PointOf(ijk[0], ijk[1], ijk[2]);
+    surface.vertices_m.col(v) = blocks.grid.PointOf(ijk[0], ijk[1], ijk[2]);
   }
   return surface;
-}
-
-// The mask cut to the box of its inside voxels, with its origin moved so
-// that every voxel stays where it was in S. Outside the box the mask is
-// empty, as the padding beyond the grid is, so the surface is the same and
-// its cost follows the organ, not the CT.
-VoxelMask CroppedToContent(const VoxelMask& mask) {
-  const auto [lo, hi] = InsideBounds(mask);
-  VoxelMask cropped = mask;
-  cropped.size = hi - lo + Eigen::Vector3i::Ones();
-  cropped.origin_m = mask.PointOf(lo.x(), lo.y(), lo.z());
-  cropped.inside.assign(cropped.num_voxels(), 0);
-  for (int k = 0; k < cropped.size.z(); ++k)
-    for (int j = 0; j < cropped.size.y(); ++j)
-      for (int i = 0; i < cropped.size.x(); ++i)
-        cropped.inside[cropped.Index(i, j, k)] = mask.inside[mask.Index(lo.x() + i, lo.y() + j, lo.z() + k)];
-  return cropped;
 }
 
 // One way of making the surface; ExtractSurface tries several in turn.
@@ -270,7 +264,7 @@ Made MakeSurface(const ExtractionImage& blocks, const SurfaceOptions& options, c
   decimation->SetInputConnection(smoother->GetOutputPort());
   decimation->Update();
 
-  Made made{ToSurfaceMesh(decimation->GetOutput(), blocks.geometry), static_cast<int>(extracted)};
+  Made made{ToSurfaceMesh(decimation->GetOutput(), blocks), static_cast<int>(extracted)};
   // Flying edges winds its triangles by the image's axes; a mirroring
   // direction (determinant -1) turns them inside out.
   if (SixEnclosedVolume(made.surface) < 0) made.surface.triangles.row(1).swap(made.surface.triangles.row(2));
@@ -402,8 +396,8 @@ io::SurfaceMesh ExtractSurface(const VoxelMask& mask, const SurfaceOptions& opti
     throw Error("the mask is empty: there is no surface to extract", kWhere,
                 "check the segmentation that made the mask");
   }
-  const VoxelMask organ = CroppedToContent(mask);
-  const ExtractionImage blocks = BlockFractions(organ, BlockFactors(organ, options.target_triangles));
+  const VoxelBounds box = InsideBounds(mask);
+  const ExtractionImage blocks = BlockFractions(mask, box, BlockFactors(mask, box, options.target_triangles));
   std::string failures;
   int attempts = 0;
   for (const Attempt& attempt : Attempts(options)) {

@@ -130,18 +130,18 @@ TEST_CASE("motion registration: a fine scan sampled at finest_sample_mm recovers
 }
 
 // The motion wanted in a corner of the cube only: the registration works on
-// the corner's box grown by one control spacing (12 mm here), recovers the
+// the corner's box grown by two control spacings (24 mm here), recovers the
 // motion there as the whole grid does, and refuses points beyond its grid.
 TEST_CASE("motion registration: a region registers the box around it and is refused beyond", "[unit]") {
   const std::vector<io::CtImage> phases = {TexturedCube(true), TexturedCube(false)};
   MotionRegistrationOptions options = AnalyticOptions();
   options.region_min_S_m = Eigen::Vector3d(-0.015, -0.015, -0.015);
   options.region_max_S_m = Eigen::Vector3d(-0.0035, -0.0005, -0.0065);
-  // Voxel i lies at -24 + 1.5 i mm: the box grown by 12 mm spans -27 mm
-  // (clamped to voxel 0) to 8.5, 11.5, 5.5 mm, voxels 21.7, 23.7, 19.7,
+  // Voxel i lies at -24 + 1.5 i mm: the box grown by 24 mm spans -39 mm
+  // (clamped to voxel 0) to 20.5, 23.5, 17.5 mm, voxels 29.7, 31.7 and 27.7,
   // rounded outwards.
   const io::CtImage grid = RegistrationGrid(phases[0], options);
-  CHECK(grid.size == Eigen::Vector3i(23, 25, 21));
+  CHECK(grid.size == Eigen::Vector3i(31, 33, 29));
   CHECK((grid.origin_m - phases[0].origin_m).norm() < 1e-12);
   CHECK(grid.values.empty());
 
@@ -151,7 +151,7 @@ TEST_CASE("motion registration: a region registers the box around it and is refu
   INFO("mean " << mean_mm << " mm, max " << max_mm << " mm over " << points.cols() << " points");
   CHECK(mean_mm < 0.08);
   CHECK(max_mm < 0.15);
-  CHECK_THROWS_WITH(deformation.Displacements(Eigen::Vector3d(0.0, 0.0, 0.015)), Contains("outside"));
+  CHECK_THROWS_WITH(deformation.Displacements(Eigen::Vector3d(0.0, 0.0, 0.023)), Contains("outside"));
 
   options.region_min_S_m = Eigen::Vector3d::Constant(0.1);
   options.region_max_S_m = Eigen::Vector3d::Constant(0.2);

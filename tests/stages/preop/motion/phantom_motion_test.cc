@@ -65,11 +65,13 @@ TEST_CASE("motion registration: the phantom's motion at its mesh nodes and fiduc
     INFO("phase " << phase_ids[p] << ": nodes mean " << nodes.mean_mm << " max " << nodes.max_mm
                   << " mm; fiducials mean " << fiducials.mean_mm << " max " << fiducials.max_mm << " mm; J ["
                   << report.min_jacobian << ", " << report.max_jacobian << "]");
-    // Measured (default options): nodes phase 5 0.31 / 0.97 mm (mean / max),
-    // phase 10 0.41 / 1.72 mm; fiducials 0.02 and 0.05 mm mean. Bounds about twice.
-    CHECK(nodes.mean_mm < 0.8);
-    CHECK(nodes.max_mm < 3.2);
-    CHECK(fiducials.mean_mm < 0.1);
+    // Measured (default options, samples 3 mm apart): nodes phase 5 0.17 /
+    // 0.65 mm (mean / max), phase 10 0.37 / 1.42 mm; fiducials 0.06 and
+    // 0.10 mm mean (every voxel: 0.02 and 0.05, with nodes at 0.31 / 0.97 and
+    // 0.41 / 1.72 mm). Bounds about twice.
+    CHECK(nodes.mean_mm < 0.75);
+    CHECK(nodes.max_mm < 2.9);
+    CHECK(fiducials.mean_mm < 0.2);
     CHECK(report.min_jacobian > 0.3);
     CHECK(report.metric_after < report.metric_before);
   }

@@ -170,7 +170,7 @@ TEST_CASE("preop segment: closing fills a tunnel narrower than the ball and stay
   const Eigen::Vector3d centre = cube.PointOf(35, 40, 15);
   const std::size_t tunnel_middle = cube.Index(35, 40, 15);
   REQUIRE(cube.inside[tunnel_middle] == 0);
-  for (const double radius_mm : {3.0, 6.0}) {
+  for (const double radius_mm : {2.5, 6.0}) {
     const VoxelMask closed = ClosedSolid(cube, radius_mm);
     std::size_t lost = 0, outside_hull = 0;
     for (int k = 0; k < cube.size.z(); ++k)
@@ -182,16 +182,17 @@ TEST_CASE("preop segment: closing fills a tunnel narrower than the ball and stay
         }
     CHECK(lost == 0);          // a closing only adds
     CHECK(outside_hull == 0);  // and never beyond the convex hull
-    // A ball of 3 mm passes through the 4 mm tunnel, one of 6 mm does not.
+    // ITK's ball of 2.5 mm there reaches 3.15, 2.7, 3 mm along x, y, z and
+    // passes through the tunnel of 4 mm; one of 6 mm reaches over 6 mm.
     CHECK(closed.inside[tunnel_middle] == (radius_mm > 4));
   }
 }
 
-TEST_CASE("preop segment: closing by distance maps is ITK's ball closing on an isotropic grid", "[unit]") {
+TEST_CASE("preop segment: closing by distance maps is ITK's ball closing, on an anisotropic grid", "[unit]") {
   // Two balls joined by a thin bridge, with a dent: what a closing changes.
   VoxelMask mask;
   mask.size = Eigen::Vector3i(48, 40, 40);
-  mask.spacing_m.setConstant(1e-3);
+  mask.spacing_m = Eigen::Vector3d(1e-3, 0.8e-3, 1.5e-3);
   mask.inside.assign(mask.num_voxels(), 0);
   for (int k = 0; k < mask.size.z(); ++k)
     for (int j = 0; j < mask.size.y(); ++j)
@@ -202,10 +203,8 @@ TEST_CASE("preop segment: closing by distance maps is ITK's ball closing on an i
         const bool dent = (p - Eigen::Vector3d(14, 20, 29)).norm() <= 3;
         mask.inside[mask.Index(i, j, k)] = (balls || bridge) && !dent;
       }
-  // ITK's ball of radius n voxels holds the voxels whose centres lie within
-  // n + 1/2 of its centre.
-  constexpr int kRadius = 4;
-  const VoxelMask closed = ClosedSolid(mask, kRadius + 0.5);
+  constexpr double kRadius_mm = 4;  // 4, 5 and 3 voxels
+  const VoxelMask closed = ClosedSolid(mask, kRadius_mm);
 
   using Mask = itk::Image<std::uint8_t, 3>;
   Mask::Pointer image = Mask::New();
@@ -216,7 +215,9 @@ TEST_CASE("preop segment: closing by distance maps is ITK's ball closing on an i
   std::copy(mask.inside.begin(), mask.inside.end(), image->GetBufferPointer());
   using Ball = itk::BinaryBallStructuringElement<std::uint8_t, 3>;
   Ball ball;
-  ball.SetRadius(kRadius);
+  Ball::SizeType radius;
+  radius[0] = 4, radius[1] = 5, radius[2] = 3;
+  ball.SetRadius(radius);
   ball.CreateStructuringElement();
   auto closing = itk::BinaryMorphologicalClosingImageFilter<Mask, Mask, Ball>::New();
   closing->SetInput(image);
