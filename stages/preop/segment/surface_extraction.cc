@@ -58,11 +58,9 @@ void BlurAlong(int axis, double sigma, const Eigen::Vector3i& size, std::vector<
   }
 }
 
-// The grid flying edges works on: the voxels of the mask's bounding box
-// (its inside voxels' box; beyond it the mask is empty, as the padding
-// beyond the grid is, so the cost follows the organ, not the CT) averaged in
-// blocks of factors voxels, each holding the fraction of its voxels inside
-// (factors 1: the mask's voxels themselves).
+// The grid flying edges works on: the voxels of a box of the mask's grid
+// averaged in blocks of factors voxels, each holding the fraction of its
+// voxels inside (factors 1: the mask's voxels themselves).
 struct ExtractionImage {
   Eigen::Vector3i size = Eigen::Vector3i::Zero();
   Eigen::Vector3i factors = Eigen::Vector3i::Ones();
@@ -396,7 +394,11 @@ io::SurfaceMesh ExtractSurface(const VoxelMask& mask, const SurfaceOptions& opti
     throw Error("the mask is empty: there is no surface to extract", kWhere,
                 "check the segmentation that made the mask");
   }
-  const VoxelBounds box = InsideBounds(mask);
+  // The whole grid, not the mask's box: on voxels of their own (the
+  // phantom's, a 3 mm CT's) the points then come out exactly as flying edges
+  // makes them on the grid, which Gmsh's exact predicates tell apart from a
+  // box's to the last bit; blocks bound the cost on fine scans.
+  const VoxelBounds box{Eigen::Vector3i::Zero(), mask.size - Eigen::Vector3i::Ones()};
   const ExtractionImage blocks = BlockFractions(mask, box, BlockFactors(mask, box, options.target_triangles));
   std::string failures;
   int attempts = 0;

@@ -206,17 +206,13 @@ sim::TetMesh Tetrahedralise(const io::SurfaceMesh& surface, const VoxelMask& mou
 
   io::gmsh_module::MeshRequest request;
   request.solid.kind = io::gmsh_module::Solid::Kind::kClosedSurface;
-  // Gmsh meshes the surface about its first vertex, each coordinate rounded
-  // to a micrometre (kMeshLattice_m). One scan read from DICOM and from NIfTI
-  // lies on grids whose origins and spacings differ in the last decimals
-  // their files keep (5e-8 mm, 3e-10 mm), and Gmsh's exact predicates turn
-  // any difference in the last bit into another mesh. About a point of the
-  // surface, rounded far above those differences, the numbers are the same,
-  // and so is the mesh; a micrometre is nothing to the surface.
-  constexpr double kMeshLattice_m = 1.0 / (1 << 20);  // 0.95 micrometres, exact in binary
+  // Gmsh meshes the surface about its first vertex: floating point is not
+  // translation invariant, and one scan read from DICOM and from NIfTI lies
+  // on grids whose origins differ in the last decimal DICOM's text keeps
+  // (5e-8 mm), which was enough to change the mesh. About a point of the
+  // surface itself the two are the same numbers, and so is the mesh.
   const Eigen::Vector3d about_m = surface.vertices_m.col(0);
-  const Eigen::Matrix3Xd local_m =
-      ((surface.vertices_m.colwise() - about_m) / kMeshLattice_m).array().round().matrix() * kMeshLattice_m;
+  const Eigen::Matrix3Xd local_m = surface.vertices_m.colwise() - about_m;
   request.solid.vertices_m.assign(local_m.data(), local_m.data() + local_m.size());
   request.solid.triangles.assign(surface.triangles.data(), surface.triangles.data() + surface.triangles.size());
   request.solid.feature_angle_rad = options.feature_angle_deg * std::numbers::pi / 180;
