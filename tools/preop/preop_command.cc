@@ -145,6 +145,10 @@ void AddPreopCommand(CLI::App& app) {
                       "Fiducial beads: MIN MAX diameter, mm, of a sphere of a bead's volume (default 0 6)")
       ->expected(2)
       ->delimiter(',');
+  command->add_flag("--register-organ-box", o.register_organ_box,
+                    "Register the motion on the box of the mesh and fiducials (grown by two control spacings) rather "
+                    "than the whole scan: faster when the scan is much larger than the organ; where the organ is cut "
+                    "by the scan's edge its nodes there can come out worse");
   command->add_flag("--resume", o.resume,
                     "Take each phase's registration from --out's cache/ when it was made from the same CT and "
                     "registration options (after a failure late in the run, or to mesh again)");

@@ -435,16 +435,19 @@ PreopSummary RunPreop(const PreopOptions& options) {
                            options.beads.Describe());
     }
 
-    // The motion is wanted at the mesh's nodes and the fiducials only: the
-    // registration works on their box (and a margin), not the whole scan.
+    // The motion is wanted at the mesh's nodes and the fiducials only: on
+    // request the registration works on their box (and a margin), not the
+    // whole scan.
     stages::preop::MotionRegistrationOptions motion = options.motion;
-    Eigen::AlignedBox3d wanted;
-    for (Eigen::Index n = 0; n < mesh.X_m.cols(); ++n) wanted.extend(mesh.X_m.col(n));
-    if (beads.num_fiducials() > 0) {
-      for (Eigen::Index f = 0; f < beads.positions_S_m[0].cols(); ++f) wanted.extend(beads.positions_S_m[0].col(f));
+    if (options.register_organ_box) {
+      Eigen::AlignedBox3d wanted;
+      for (Eigen::Index n = 0; n < mesh.X_m.cols(); ++n) wanted.extend(mesh.X_m.col(n));
+      if (beads.num_fiducials() > 0) {
+        for (Eigen::Index f = 0; f < beads.positions_S_m[0].cols(); ++f) wanted.extend(beads.positions_S_m[0].col(f));
+      }
+      motion.region_min_S_m = wanted.min();
+      motion.region_max_S_m = wanted.max();
     }
-    motion.region_min_S_m = wanted.min();
-    motion.region_max_S_m = wanted.max();
     const std::vector<stages::preop::PhaseDeformation> deformations = steps.Run("B-spline motion", [&] {
       return RegisterPhasesAtOnce(phases, options, motion, &summary.phases_from_cache);
     });

@@ -34,6 +34,10 @@ struct PreopOptions {
   // motion is then the registered motion.
   std::string fiducials_file;
   stages::BeadDetectionOptions beads;
+  // Register on the box of the mesh and fiducials grown by two control
+  // spacings (faster on a scan much larger than the organ) rather than on the
+  // whole scan; docs/preop.md, "Where and how densely", gives the trade-off.
+  bool register_organ_box = false;
   bool resume = false;        // take each phase's registration from --out/cache/ when made from the same inputs
   stages::preop::SegmentationOptions segmentation;
   stages::preop::SurfaceOptions surface;

@@ -48,22 +48,10 @@ using BSpline = itk::BSplineTransform<double, kDim, kSplineOrder>;
 using VectorImage = itk::Image<itk::Vector<float, kDim>, kDim>;
 
 // The voxels of `ct` on `grid`, a box of ct's own grid (RegistrationGrid).
+Image::Pointer DomainOf(const io::CtImage& ct);
+
 Image::Pointer ToItkImage(const io::CtImage& ct, const io::CtImage& grid) {
-  Image::RegionType region;
-  Image::SpacingType spacing;
-  Image::PointType origin;
-  Image::DirectionType direction;
-  for (unsigned d = 0; d < kDim; ++d) {
-    region.SetSize(d, grid.size[d]);
-    spacing[d] = grid.spacing_m[d] * kMmPerM;
-    origin[d] = grid.origin_m[d] * kMmPerM;
-    for (unsigned e = 0; e < kDim; ++e) direction(d, e) = grid.direction(d, e);
-  }
-  Image::Pointer image = Image::New();
-  image->SetRegions(region);
-  image->SetSpacing(spacing);
-  image->SetOrigin(origin);
-  image->SetDirection(direction);
+  Image::Pointer image = DomainOf(grid);
   image->Allocate();
   const Eigen::Vector3i first =
       ((ct.direction * ct.spacing_m.asDiagonal()).inverse() * (grid.origin_m - ct.origin_m)).array().round().cast<int>();
@@ -76,6 +64,26 @@ Image::Pointer ToItkImage(const io::CtImage& ct, const io::CtImage& grid) {
   return image;
 }
 Image::Pointer ToItkImage(const io::CtImage& ct) { return ToItkImage(ct, ct); }
+
+// The grid of `ct` as an ITK image without voxels: a geometry.
+Image::Pointer DomainOf(const io::CtImage& ct) {
+  Image::RegionType region;
+  Image::SpacingType spacing;
+  Image::PointType origin;
+  Image::DirectionType direction;
+  for (unsigned d = 0; d < kDim; ++d) {
+    region.SetSize(d, ct.size[d]);
+    spacing[d] = ct.spacing_m[d] * kMmPerM;
+    origin[d] = ct.origin_m[d] * kMmPerM;
+    for (unsigned e = 0; e < kDim; ++e) direction(d, e) = ct.direction(d, e);
+  }
+  Image::Pointer image = Image::New();
+  image->SetRegions(region);
+  image->SetSpacing(spacing);
+  image->SetOrigin(origin);
+  image->SetDirection(direction);
+  return image;
+}
 
 // Index i mirrored into [0, n - 1] about the end samples (ITK's boundary
 // condition for B-spline interpolation). @pre -(n - 1) <= i <= 2 (n - 1).
@@ -574,17 +582,21 @@ void RunLevel(const Image::Pointer& fixed, const Image::Pointer& moving, const B
   report->stop_condition = summary.message;
 }
 
-BSpline::Pointer FitSpline(const Image::Pointer& fixed, const Image::Pointer& moving,
+// The spline's domain is `domain`'s extent (phase 0's whole grid, no
+// voxels), whatever part of it the images cover: its control points are
+// then where a registration of the whole grid puts them, whatever the
+// region. Control points with no sample near them keep the identity.
+BSpline::Pointer FitSpline(const Image::Pointer& fixed, const Image::Pointer& moving, const Image::Pointer& domain,
                            const MotionRegistrationOptions& options, PhaseRegistrationReport* report) {
   const BSpline::Pointer transform = BSpline::New();
   for (int level = 0; level < options.levels; ++level) {
     const unsigned shrink = 1u << (options.levels - 1 - level);
-    const BSpline::MeshSizeType mesh = MeshSize(fixed, options.grid_spacing_mm * shrink);
+    const BSpline::MeshSizeType mesh = MeshSize(domain, options.grid_spacing_mm * shrink);
     if (level == 0) {
       using Initializer = itk::BSplineTransformInitializer<BSpline, Image>;
       const Initializer::Pointer initializer = Initializer::New();
       initializer->SetTransform(transform);
-      initializer->SetImage(fixed);
+      initializer->SetImage(domain);
       initializer->SetTransformDomainMeshSize(mesh);
       initializer->InitializeTransform();
       transform->SetIdentity();
@@ -750,8 +762,8 @@ Eigen::Matrix3Xd PhaseDeformation::Displacements(const Eigen::Matrix3Xd& points_
 // point with the control points within two spacings of it; two spacings of
 // image beyond the outermost point give each of those control points its
 // whole support of samples. With one, control points half outside the image
-// were held by half their samples, and the real abdominal CT's worst node
-// (at the region's edge) moved from 0.36 to 1.4 mm.
+// were held by half their samples (on the real abdominal CT, nodes at the
+// region's edge off by 1.4 mm).
 constexpr double kRegionMarginSpacings = 2;
 
 io::CtImage RegistrationGrid(const io::CtImage& phase0, const MotionRegistrationOptions& options) {
@@ -807,7 +819,7 @@ PhaseDeformation RegisterPhase(const std::vector<io::CtImage>& phases, int k, co
   const Image::Pointer fixed = ToItkImage(phases[0], spline->grid);
   const Image::Pointer moving = ToItkImage(phases[k], spline->grid);
   try {
-    spline->transform = FitSpline(fixed, moving, options, &report);
+    spline->transform = FitSpline(fixed, moving, DomainOf(phases[0]), options, &report);
     const BSpline::ParametersType result = spline->transform->GetParameters();
     const BSpline::ParametersType identity(result.Size(), 0.0);
     const Factors finest = FinestFactors(fixed, options);
