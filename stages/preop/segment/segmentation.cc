@@ -648,18 +648,6 @@ Segmentation Segment(const io::CtImage& ct, const SegmentationOptions& options) 
   });
 }
 
-VoxelBounds InsideBounds(const VoxelMask& mask) {
-  VoxelBounds bounds{mask.size, Eigen::Vector3i::Constant(-1)};
-  for (int k = 0; k < mask.size.z(); ++k)
-    for (int j = 0; j < mask.size.y(); ++j)
-      for (int i = 0; i < mask.size.x(); ++i)
-        if (mask.inside[mask.Index(i, j, k)]) {
-          bounds.first = bounds.first.cwiseMin(Eigen::Vector3i(i, j, k));
-          bounds.last = bounds.last.cwiseMax(Eigen::Vector3i(i, j, k));
-        }
-  return bounds;
-}
-
 namespace {
 
 // One pass of the exact squared Euclidean distance transform (Felzenszwalb
@@ -731,9 +719,12 @@ VoxelMask ClosedSolid(const VoxelMask& mask, double radius_mm) {
   const Eigen::Vector3i radius_voxels = RadiusVoxels(radius_mm, mask.spacing_m);
   const Eigen::Vector3d step = (radius_voxels.cast<double>().array() + 0.5).inverse();
   const Eigen::Vector3i reach = radius_voxels + Eigen::Vector3i::Ones();
-  const auto [lo, hi] = InsideBounds(mask);
-  if (hi.x() < 0) return mask;
-  const Box padded{lo - reach, hi - lo + Eigen::Vector3i::Ones() + 2 * reach};
+  MaskImage::Pointer whole = NewImage<MaskImage>(mask.size);
+  std::copy(mask.inside.begin(), mask.inside.end(), whole->GetBufferPointer());
+  const Box content = BoundingBox(whole, 0);
+  whole = nullptr;
+  if (content.num_voxels() == 0) return mask;
+  const Box padded{content.start - reach, content.size + 2 * reach};
   const Box grid{Eigen::Vector3i::Zero(), mask.size};
   auto for_each_grid_voxel = [&](auto&& f) {  // f(index in padded, index in the mask's grid)
     std::size_t local = 0;

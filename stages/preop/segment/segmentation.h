@@ -36,14 +36,6 @@ struct VoxelMask {
   }
 };
 
-// The first and last voxel along each axis (inclusive) of the mask's inside
-// voxels; last.x() is -1 when none is inside.
-struct VoxelBounds {
-  Eigen::Vector3i first;
-  Eigen::Vector3i last;
-};
-VoxelBounds InsideBounds(const VoxelMask& mask);
-
 // An inclusive range of CT numbers, HU.
 struct HuRange {
   double min_hu = 0;

@@ -58,14 +58,17 @@ void BlurAlong(int axis, double sigma, const Eigen::Vector3i& size, std::vector<
   }
 }
 
-// The grid flying edges works on: the voxels of a box of the mask's grid
-// averaged in blocks of factors voxels, each holding the fraction of its
-// voxels inside (factors 1: the mask's voxels themselves).
+// The grid flying edges works on: the mask's voxels averaged in blocks of
+// factors voxels, each holding the fraction of its voxels inside (factors 1:
+// the mask's voxels themselves). It spans the mask's whole grid, not the
+// box of its inside voxels: on voxels of their own (the phantom's, a 3 mm
+// CT's) the points then come out exactly as flying edges makes them on the
+// grid, which Gmsh's exact predicates tell apart from a box's to the last
+// bit (docs/preop.md, "Tetrahedralisation").
 struct ExtractionImage {
   Eigen::Vector3i size = Eigen::Vector3i::Zero();
   Eigen::Vector3i factors = Eigen::Vector3i::Ones();
-  Eigen::Vector3i first_voxel = Eigen::Vector3i::Zero();  // the box's first voxel, in the mask's grid
-  std::vector<float> fraction;                            // x fastest
+  std::vector<float> fraction;  // x fastest
   std::size_t voxels_inside = 0;
   VoxelMask grid;  // the mask's grid (PointOf), no voxels
 };
@@ -79,12 +82,12 @@ constexpr double kExtractedPerKept = 20;
 // triangles; h is chosen for kExtractedPerKept times the target, and never
 // below the voxels (the phantom's 1 mm heart keeps its voxels; a 0.6 mm scan
 // of a liver is taken in blocks of 2 x 2 x 1).
-Eigen::Vector3i BlockFactors(const VoxelMask& mask, const VoxelBounds& box, int target_triangles) {
+Eigen::Vector3i BlockFactors(const VoxelMask& mask, int target_triangles) {
   const Eigen::Vector3d spacing_mm = 1e3 * mask.spacing_m;
   double area_mm2 = 0;  // of the voxels' faces between inside and outside: the staircase's area
-  for (int k = box.first.z(); k <= box.last.z(); ++k)
-    for (int j = box.first.y(); j <= box.last.y(); ++j)
-      for (int i = box.first.x(); i <= box.last.x(); ++i) {
+  for (int k = 0; k < mask.size.z(); ++k)
+    for (int j = 0; j < mask.size.y(); ++j)
+      for (int i = 0; i < mask.size.x(); ++i) {
         const bool in = mask.inside[mask.Index(i, j, k)];
         const Eigen::Vector3i v(i, j, k);
         for (int axis = 0; axis < 3; ++axis) {
@@ -98,19 +101,18 @@ Eigen::Vector3i BlockFactors(const VoxelMask& mask, const VoxelBounds& box, int 
   return (h_mm / spacing_mm.array()).floor().cast<int>().max(1);
 }
 
-ExtractionImage BlockFractions(const VoxelMask& mask, const VoxelBounds& box, const Eigen::Vector3i& factors) {
+ExtractionImage BlockFractions(const VoxelMask& mask, const Eigen::Vector3i& factors) {
   ExtractionImage image;
   image.factors = factors;
-  image.first_voxel = box.first;
-  image.size = (box.last - box.first + factors).array() / factors.array();
+  image.size = (mask.size + factors - Eigen::Vector3i::Ones()).array() / factors.array();
   image.fraction.assign(static_cast<std::size_t>(image.size.x()) * image.size.y() * image.size.z(), 0.0f);
-  const float weight = 1.0f / static_cast<float>(factors.prod());  // voxels beyond the box count as outside
-  for (int k = box.first.z(); k <= box.last.z(); ++k)
-    for (int j = box.first.y(); j <= box.last.y(); ++j)
-      for (int i = box.first.x(); i <= box.last.x(); ++i) {
+  const float weight = 1.0f / static_cast<float>(factors.prod());  // voxels beyond the grid count as outside
+  for (int k = 0; k < mask.size.z(); ++k)
+    for (int j = 0; j < mask.size.y(); ++j)
+      for (int i = 0; i < mask.size.x(); ++i) {
         if (!mask.inside[mask.Index(i, j, k)]) continue;
         ++image.voxels_inside;
-        const Eigen::Vector3i b = (Eigen::Vector3i(i, j, k) - box.first).array() / factors.array();
+        const Eigen::Vector3i b = Eigen::Vector3i(i, j, k).array() / factors.array();
         image.fraction[b.x() + image.size.x() * (static_cast<std::size_t>(b.y()) + static_cast<std::size_t>(image.size.y()) * b.z())] += weight;
       }
   image.grid.size = mask.size;
@@ -145,7 +147,7 @@ vtkSmartPointer<vtkImageData> PaddedImage(const ExtractionImage& in, int pad, co
   double origin[3], spacing[3];
   for (int d = 0; d < 3; ++d) {
     spacing[d] = in.factors[d];
-    origin[d] = in.first_voxel[d] + 0.5 * (in.factors[d] - 1) - pad * spacing[d];
+    origin[d] = 0.5 * (in.factors[d] - 1) - pad * spacing[d];
   }
   image->SetOrigin(origin);
   image->SetSpacing(spacing);
@@ -394,12 +396,7 @@ io::SurfaceMesh ExtractSurface(const VoxelMask& mask, const SurfaceOptions& opti
     throw Error("the mask is empty: there is no surface to extract", kWhere,
                 "check the segmentation that made the mask");
   }
-  // The whole grid, not the mask's box: on voxels of their own (the
-  // phantom's, a 3 mm CT's) the points then come out exactly as flying edges
-  // makes them on the grid, which Gmsh's exact predicates tell apart from a
-  // box's to the last bit; blocks bound the cost on fine scans.
-  const VoxelBounds box{Eigen::Vector3i::Zero(), mask.size - Eigen::Vector3i::Ones()};
-  const ExtractionImage blocks = BlockFractions(mask, box, BlockFactors(mask, box, options.target_triangles));
+  const ExtractionImage blocks = BlockFractions(mask, BlockFactors(mask, options.target_triangles));
   std::string failures;
   int attempts = 0;
   for (const Attempt& attempt : Attempts(options)) {
