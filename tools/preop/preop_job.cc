@@ -61,11 +61,13 @@ std::vector<stages::preop::PhaseDeformation> RegisterPhasesAtOnce(const std::vec
   if (options.progress && *from_cache > 0) {
     std::fprintf(stderr, "preop:   %d phases taken from %s/cache (--resume)\n", *from_cache, options.out_dir.c_str());
   }
+  if (to_register.empty()) return deformations;
+  const stages::preop::PhaseRegistration registration(phases, motion);
   tbb::task_arena arena(options.threads > 0 ? options.threads : tbb::this_task_arena::max_concurrency());
   arena.execute([&] {
     tbb::parallel_for(0, static_cast<int>(to_register.size()), [&](int i) {
       const int k = to_register[i];
-      deformations[k] = stages::preop::RegisterPhase(phases, k, motion);
+      deformations[k] = registration.Register(k);
       cache.Save(k, deformations[k]);
       if (!options.progress) return;
       const stages::preop::PhaseRegistrationReport& phase = deformations[k].report();

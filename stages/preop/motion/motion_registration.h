@@ -57,7 +57,7 @@ io::CtImage RegistrationGrid(const io::CtImage& phase0, const MotionRegistration
 // Figures of one phase's registration, for a report.
 struct PhaseRegistrationReport {
   int phase = 0;
-  double metric_before = 0;  // the metric (MotionMetric; HU^2 or nats) at the identity, on the finest level's samples
+  double metric_before = 0;  // the finest level's objective (MotionMetric, HU^2 or nats, plus any bending term) at the identity
   double metric_after = 0;   // and at the result
   int iterations = 0;        // L-BFGS iterations, all levels
   int evaluations = 0;       // of the metric and its gradient, all levels (line searches included)
@@ -106,17 +106,36 @@ class PhaseDeformation {
 //         values do not fill its grid; each names the phase and its source.
 void CheckPhases(const std::vector<io::CtImage>& phases);
 
-// Registers phases[k] (moving) to phases[0] (fixed) on the calling thread:
-// the deformation maps phase-0 positions to phase k. Calls for different
-// phases may run at once (each makes its own ITK images, and the optimiser
-// keeps no state between calls); the result does not depend on it, to the bit.
-// @throws dg::Error on invalid options, phases CheckPhases refuses, k outside
-//         1 to phases.size() - 1, or ITK failing on the phase.
-PhaseDeformation RegisterPhase(const std::vector<io::CtImage>& phases, int k, const MotionRegistrationOptions& options);
+// The registration of each phase (moving) to phase 0 (fixed). Phase 0's
+// blurred samples for every level are made once, here, and shared by the
+// registrations of all phases.
+class PhaseRegistration {
+ public:
+  // Keeps a reference to phases, which must outlive it.
+  // @throws dg::Error on invalid options or phases CheckPhases refuses.
+  PhaseRegistration(const std::vector<io::CtImage>& phases, const MotionRegistrationOptions& options);
+  ~PhaseRegistration();
+  PhaseRegistration(const PhaseRegistration&) = delete;
+  PhaseRegistration& operator=(const PhaseRegistration&) = delete;
 
-// Every phase registered in turn: result k from RegisterPhase(phases, k),
-// result 0 the identity.
-// @throws as RegisterPhase.
+  // Phase k registered on the calling thread: the deformation maps phase-0
+  // positions to phase k. Calls for different phases may run at once (each
+  // makes its own moving images, and the optimiser keeps no state between
+  // calls); the result does not depend on it, to the bit.
+  // @throws dg::Error for k outside 1 to phases.size() - 1, or ITK failing on
+  //         the phase.
+  PhaseDeformation Register(int k) const;
+
+ private:
+  struct Levels;
+  const std::vector<io::CtImage>& phases_;
+  MotionRegistrationOptions options_;
+  std::unique_ptr<const Levels> levels_;
+};
+
+// Every phase registered in turn: result k from PhaseRegistration's
+// Register(k), result 0 the identity.
+// @throws as PhaseRegistration.
 std::vector<PhaseDeformation> RegisterPhases(const std::vector<io::CtImage>& phases,
                                              const MotionRegistrationOptions& options);
 

@@ -145,7 +145,7 @@ TEST_CASE("motion registration: a region registers the box around it and is refu
   CHECK((grid.origin_m - phases[0].origin_m).norm() < 1e-12);
   CHECK(grid.values.empty());
 
-  const PhaseDeformation deformation = RegisterPhase(phases, 1, options);
+  const PhaseDeformation deformation = PhaseRegistration(phases, options).Register(1);
   const Eigen::Matrix3Xd points = PointsIn(*options.region_min_S_m, *options.region_max_S_m);
   const auto [mean_mm, max_mm] = ErrorsMm(deformation, points);
   INFO("mean " << mean_mm << " mm, max " << max_mm << " mm over " << points.cols() << " points");
@@ -177,7 +177,8 @@ TEST_CASE("motion registration: phases registered at once match one at a time to
   REQUIRE(one_at_a_time.norm() > 0);
   tbb::global_control two(tbb::global_control::max_allowed_parallelism, 2);
   std::vector<PhaseDeformation> at_once(phases.size());
-  tbb::parallel_for(1, static_cast<int>(phases.size()), [&](int k) { at_once[k] = RegisterPhase(phases, k, options); });
+  const PhaseRegistration registration(phases, options);
+  tbb::parallel_for(1, static_cast<int>(phases.size()), [&](int k) { at_once[k] = registration.Register(k); });
   for (size_t k = 1; k < phases.size(); ++k) {
     INFO("phase " << k);
     CHECK((at_once[k].Displacements(points) - one_at_a_time).cwiseAbs().maxCoeff() == 0.0);
@@ -197,8 +198,10 @@ TEST_CASE("motion registration: bad input gets named errors", "[unit]") {
                         Contains("phase 1 (shifted.mhd)") && Contains("differs from phase 0"));
   }
   SECTION("a phase that is not one after the first") {
-    REQUIRE_THROWS_WITH(RegisterPhase({cube, cube}, 0, AnalyticOptions()), Contains("phase 0 is not one of phases 1 to 1"));
-    REQUIRE_THROWS_WITH(RegisterPhase({cube, cube}, 2, AnalyticOptions()), Contains("phase 2"));
+    const std::vector<io::CtImage> phases = {cube, cube};
+    const PhaseRegistration registration(phases, AnalyticOptions());
+    REQUIRE_THROWS_WITH(registration.Register(0), Contains("phase 0 is not one of phases 1 to 1"));
+    REQUIRE_THROWS_WITH(registration.Register(2), Contains("phase 2"));
   }
   SECTION("values that do not fill the grid") {
     io::CtImage short_phase = cube;
