@@ -20,6 +20,7 @@
 #include "io/calibration_keys.h"
 #include "io/units.h"
 #include "sim/error.h"
+#include "sim/log.h"
 
 namespace dg::io {
 namespace {
@@ -136,6 +137,38 @@ void CheckBaseline(const CalibrationKeys& file, const std::string& key, const Ei
   }
 }
 
+// A stereo endoscope's cameras sit side by side, a few millimetres apart,
+// looking the same way; a calibration that says otherwise is most often one
+// with left and right swapped, T's sign flipped, or poorly conditioned views,
+// and every depth would follow. Warned of, not refused: a bench rig or a
+// vertical pair may be meant.
+constexpr double kTypicalBaselineMin_m = 2e-3, kTypicalBaselineMax_m = 20e-3;
+constexpr double kLargestDepthShare = 0.25;  // of the baseline, along the optical axis
+
+void WarnOfUnlikelyPlacement(const CalibrationKeys& file, const std::string& key, const StereoCalibration& pair) {
+  const Eigen::Vector3d right_centre_m = -pair.R.transpose() * pair.T_m;  // in the left camera's frame
+  const double baseline_m = right_centre_m.norm();
+  const std::string where = file.path() + " (" + key + ")";
+  spdlog::logger& log = Logger("io");
+  if (baseline_m < kTypicalBaselineMin_m || baseline_m > kTypicalBaselineMax_m) {
+    log.warn("{}: a baseline of {:.2f} mm, outside a stereo endoscope's {:.0f}-{:.0f} mm; check T's unit and the "
+             "board's square size",
+             where, baseline_m * 1e3, kTypicalBaselineMin_m * 1e3, kTypicalBaselineMax_m * 1e3);
+  }
+  const bool horizontal = std::abs(right_centre_m.x()) >= std::abs(right_centre_m.y());
+  if (horizontal && right_centre_m.x() < 0) {
+    log.warn("{}: the right camera sits {:.2f} mm to the LEFT of the left one (T = [{:.4g} {:.4g} {:.4g}] mm): "
+             "left and right are probably swapped, in the calibration or in the video",
+             where, -right_centre_m.x() * 1e3, pair.T_m.x() * 1e3, pair.T_m.y() * 1e3, pair.T_m.z() * 1e3);
+  }
+  if (std::abs(right_centre_m.z()) > kLargestDepthShare * baseline_m) {
+    log.warn("{}: the right camera sits {:.2f} mm ahead of or behind the left one, {:.0f}% of the baseline "
+             "(a side-by-side pair: under {:.0f}%); the calibration's views may not have constrained it",
+             where, right_centre_m.z() * 1e3, 100 * std::abs(right_centre_m.z()) / baseline_m,
+             100 * kLargestDepthShare);
+  }
+}
+
 // T, and the translations in the rectification (the last columns of P1 and
 // P2, and Q's last row, which divides by the baseline), into metres.
 void ScaleTranslations(double metres_per_unit, StereoCalibration* calibration) {
@@ -248,6 +281,7 @@ StereoCalibration ReadStereoCalibration(const CalibrationSource& source, const s
   }
   ScaleTranslations(source.metres_per_unit, &calibration);
   CheckBaseline(*T_file, T_key, calibration.T_m, source.metres_per_unit);
+  WarnOfUnlikelyPlacement(*T_file, T_key, calibration);
 
   if (!size && video_size) size = std::make_pair(video_size->width, video_size->height);
   if (!size) {

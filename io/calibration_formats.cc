@@ -3,10 +3,13 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdio>
 
 #include <Eigen/LU>
+#include <Eigen/SVD>
 
 #include "sim/error.h"
+#include "sim/log.h"
 
 namespace dg::io {
 
@@ -33,12 +36,28 @@ void ReadDistortion(const CalibrationKeys& file, const std::string& key, CameraC
   for (int i = 0; i < count; ++i) camera->distortion[i] = coefficients(i);
 }
 
-void CheckRotation(const CalibrationKeys& file, const std::string& key, const Eigen::Matrix3d& R) {
+// The rotation a file's key gives. Files written by hand or converted from
+// other tools round R to a few digits (the Hamlyn data's to 6: |R^T R - I| =
+// 1e-6); up to kRoundedRotation that is rounding, and the nearest rotation
+// (the SVD's U V^T) replaces it, with a note. Beyond it, the matrix is not a
+// rotation: a wrong key, a transposed or scaled matrix.
+constexpr double kRoundedRotation = 1e-4;
+Eigen::Matrix3d Rotation(const CalibrationKeys& file, const std::string& key) {
+  const Eigen::Matrix3d R = file.Matrix(key, 3, 3);
   const double orthogonality = (R.transpose() * R - Eigen::Matrix3d::Identity()).norm();
-  if (orthogonality > 1e-6 || R.determinant() < 0) {
-    file.Fail(key, "not a rotation (|R^T R - I| = " + std::to_string(orthogonality) +
-                       ", det = " + std::to_string(R.determinant()) + ")");
+  if (!(orthogonality <= kRoundedRotation) || R.determinant() < 0) {
+    char what[160];
+    std::snprintf(what, sizeof what, "not a rotation (|R^T R - I| = %.3g, det = %.6g; up to %.0e is taken as rounding)",
+                  orthogonality, R.determinant(), kRoundedRotation);
+    file.Fail(key, what);
   }
+  if (orthogonality <= 1e-12) return R;
+  const Eigen::JacobiSVD<Eigen::Matrix3d> svd(R, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  const Eigen::Matrix3d nearest = svd.matrixU() * svd.matrixV().transpose();
+  Logger("io").info("{}: {} is a rotation to {:.2g} (|R^T R - I|), as rounded digits give: the nearest rotation is used, "
+                    "{:.2g} from it",
+                    file.path(), key, orthogonality, (nearest - R).norm());
+  return nearest;
 }
 
 // Q as cv::stereoRectify builds it from the rectified pair: reprojects
@@ -88,8 +107,7 @@ CameraCalibration ReadCamera(const CalibrationKeys& file, const std::string& K_k
 }
 
 void ReadExtrinsics(const CalibrationKeys& file, StereoCalibration* calibration) {
-  calibration->R = file.Matrix("R", 3, 3);
-  CheckRotation(file, "R", calibration->R);
+  calibration->R = Rotation(file, "R");
   calibration->T_m = file.Matrix("T", 3, 1);
   // E and F follow from the rest and are recomputed, not read.
   const std::array<const char*, 5> rectification_keys = {"R1", "R2", "P1", "P2", "Q"};
@@ -128,8 +146,7 @@ CameraInfo ReadCameraInfo(const CalibrationKeys& file) {
   info.camera.width = file.PositiveInteger("image_width");
   info.camera.height = file.PositiveInteger("image_height");
   if (file.Has("rectification_matrix")) {
-    info.rectification = file.Matrix("rectification_matrix", 3, 3);
-    CheckRotation(file, "rectification_matrix", *info.rectification);
+    info.rectification = Rotation(file, "rectification_matrix");
   }
   if (file.Has("projection_matrix")) info.projection = file.Matrix("projection_matrix", 3, 4);
   return info;

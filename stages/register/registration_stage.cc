@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <tuple>
 
 #include "sim/error.h"
 
@@ -69,8 +70,7 @@ FiducialTracker StartFiducialTracker(const Triangulator& geometry, const std::ve
     start.emplace_back(static_cast<float>(uv_R.x()), static_cast<float>(uv_R.y()));
   }
   FiducialTracker::Options options;
-  options.stereo.min_disparity_px = std::max(0.0, std::floor(geometry.DisparityAtDepth(far_m)));
-  options.stereo.max_disparity_px = std::ceil(geometry.DisparityAtDepth(near_m));
+  std::tie(options.stereo.min_disparity_px, options.stereo.max_disparity_px) = geometry.DisparityRange(near_m, far_m);
   return FiducialTracker(options, start);
 }
 

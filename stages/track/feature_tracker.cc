@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <string>
+#include <tuple>
 
 #include "sim/error.h"
 #include "stages/track/stereo_pair_check.h"
@@ -119,15 +120,9 @@ void FeatureTracker::Process(const cv::Mat& left_R, const cv::Mat& right_R, Trac
 }
 
 FeatureTracker::Options OptionsForDepthRange(const io::StereoCalibration& rectified, double near_m, double far_m) {
-  if (!(near_m > 0 && near_m < far_m) || std::isnan(far_m)) {
-    throw Error("the depth range " + std::to_string(near_m) + " to " + std::to_string(far_m) +
-                    " m is empty or not in front of the camera",
-                "--near/--far", "give 0 < near < far in metres, e.g. --near 0.03 --far 0.3");
-  }
   FeatureTracker::Options options;
-  const Triangulator geometry(rectified);
-  options.stereo.min_disparity_px = std::max(0.0, std::floor(geometry.DisparityAtDepth(far_m)));
-  options.stereo.max_disparity_px = std::ceil(geometry.DisparityAtDepth(near_m));
+  std::tie(options.stereo.min_disparity_px, options.stereo.max_disparity_px) =
+      Triangulator(rectified).DisparityRange(near_m, far_m);
   if (options.stereo.max_disparity_px >= rectified.left.width) {
     throw Error("the near depth " + std::to_string(near_m) + " m is a disparity of " +
                     std::to_string(options.stereo.max_disparity_px) + " px, wider than the image",

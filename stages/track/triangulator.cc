@@ -1,6 +1,8 @@
 #include "stages/track/triangulator.h"
 
+#include <algorithm>
 #include <cmath>
+#include <string>
 
 #include <Eigen/Geometry>
 
@@ -86,6 +88,22 @@ double Triangulator::DisparityAtDepth(double z_m) const {
   const auto& P1 = rectification_.P1;
   const auto& P2 = rectification_.P2;
   return -P2(0, 3) / z_m + (P1(0, 2) - P2(0, 2));
+}
+
+std::pair<double, double> Triangulator::DisparityRange(double near_m, double far_m) const {
+  if (!(near_m > 0 && near_m < far_m) || std::isnan(far_m)) {
+    throw Error("the depth range " + std::to_string(near_m) + " to " + std::to_string(far_m) +
+                    " m is empty or not in front of the camera",
+                "--near/--far", "give 0 < near < far in metres, e.g. --near 0.03 --far 0.3");
+  }
+  const double nearest_px = DisparityAtDepth(near_m);
+  if (!(nearest_px > 0)) {
+    throw Error("depths of " + std::to_string(near_m) + " m and beyond have negative disparities (" +
+                    std::to_string(nearest_px) + " px): the calibration puts the right camera on the left",
+                "the stereo calibration's T",
+                "swap the left and right videos, or calibrate again with the left camera's images first");
+  }
+  return {std::max(0.0, std::floor(DisparityAtDepth(far_m))), std::ceil(nearest_px)};
 }
 
 }  // namespace dg::stages

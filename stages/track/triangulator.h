@@ -1,5 +1,7 @@
 #pragma once
 
+#include <utility>
+
 #include <Eigen/Core>
 
 #include "io/calibration.h"
@@ -34,6 +36,12 @@ class Triangulator {
 
   // Disparity (px) of a point at depth z_m: f B / z, for choosing a search range.
   double DisparityAtDepth(double z_m) const;
+  // The disparities (px) of depths far_m and near_m, rounded outwards (the
+  // smallest at least 0): a matcher's search range.
+  // @throws dg::Error for an empty depth range, or a pair whose disparities
+  //         are negative: its right camera sits on the left (left and right
+  //         swapped in the calibration or the video).
+  std::pair<double, double> DisparityRange(double near_m, double far_m) const;
 
  private:
   io::CameraCalibration left_, right_;

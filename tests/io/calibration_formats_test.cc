@@ -14,9 +14,13 @@
 #include <opencv2/core.hpp>
 #include <opencv2/core/eigen.hpp>
 
+#include <spdlog/sinks/ringbuffer_sink.h>
+
 #include "io/calibration.h"
 #include "io/scene.h"
 #include "sim/error.h"
+#include "sim/log.h"
+#include "tests/support/real_data.h"
 
 namespace dg::io {
 namespace {
@@ -162,6 +166,81 @@ TEST_CASE("calibration formats: OpenCV stereo_calib's intrinsics.yml and extrins
   REQUIRE(unitless.where() == extrinsics + ": key T");
   REQUIRE_THAT(unitless.problem(), Contains("2.101 m") && Contains("chessboard squares"));
   REQUIRE_THAT(unitless.fix(), Contains("calibration_units"));
+}
+
+// The io module's log lines while reading `source`.
+std::vector<std::string> ReadLogging(const CalibrationSource& source, const std::optional<ImageSize>& video,
+                                     StereoCalibration* read) {
+  auto log = std::make_shared<spdlog::sinks::ringbuffer_sink_mt>(16);
+  Logger("io").sinks().push_back(log);
+  try {
+    *read = ReadStereoCalibration(source, video);
+  } catch (...) {
+    Logger("io").sinks().pop_back();
+    throw;
+  }
+  Logger("io").sinks().pop_back();
+  return log->last_formatted(16);
+}
+
+// The Hamlyn heart phantom's calibration (converted from the data set's own
+// text files) writes R to six digits: |R^T R - I| = 1.3e-6. It is read as
+// given, R replaced by the nearest rotation with a note; a matrix off by
+// 1e-3 is no rotation and is refused.
+TEST_CASE("calibration formats: a rotation rounded to six digits is taken, one off by 1e-3 is refused",
+          "[io][unit]") {
+  const std::string hamlyn = "05_stereo_heart_phantom_hamlyn_f7_frame100/";
+  CalibrationSource source;
+  source.files = {testing::RealData(hamlyn + "intrinsics.yml"), testing::RealData(hamlyn + "extrinsics.yml")};
+  source.metres_per_unit = 1e-3;
+  StereoCalibration read;
+  const std::vector<std::string> lines = ReadLogging(source, ImageSize{360, 288}, &read);
+  const Eigen::MatrixXd as_written = ToEigen(Stored(source.files[1], "R"));
+  CHECK((read.R.transpose() * read.R - Eigen::Matrix3d::Identity()).norm() < 1e-14);
+  CHECK((read.R - as_written).norm() < 2e-6);
+  CHECK(read.T_m.norm() == Approx(5.5211e-3).epsilon(1e-4));
+  REQUIRE(!lines.empty());
+  CHECK_THAT(lines.front(), Contains("extrinsics.yml") && Contains("R is a rotation to 1.3e-06") &&
+                                Contains("nearest rotation"));
+
+  const std::string scaled = OutputPath("extrinsics_scaled_R.yml");
+  {
+    cv::FileStorage fs(scaled, cv::FileStorage::WRITE);
+    fs << "R" << Stored(source.files[1], "R") * 1.001 << "T" << Stored(source.files[1], "T");
+  }
+  source.files[1] = scaled;
+  CHECK_THROWS_WITH(ReadStereoCalibration(source, ImageSize{360, 288}),
+                    Contains("not a rotation") && Contains("rounding"));
+}
+
+// A calibration whose right camera sits on the left, ahead of the left
+// camera by half the baseline, 30 mm from it: each is warned of, naming the
+// file; a side-by-side pair 4.2 mm apart is read without a word.
+TEST_CASE("calibration formats: an unlikely placement of the right camera is warned of", "[io][unit]") {
+  const std::string intrinsics = kOpencvData + "intrinsics.yml";
+  const auto warnings = [&](const Eigen::Vector3d& right_centre_m) {
+    Extrinsics pair = Pair(1);
+    Eigen::Matrix3d R;
+    cv::cv2eigen(pair.R, R);
+    const Eigen::Vector3d T = -R * right_centre_m;
+    cv::eigen2cv(T, pair.T);
+    const std::string extrinsics = OutputPath("extrinsics_placed.yml");
+    WriteSampleExtrinsics(extrinsics, intrinsics, pair);
+    CalibrationSource source;
+    source.files = {intrinsics, extrinsics};
+    StereoCalibration read;
+    return ReadLogging(source, kVideo, &read);
+  };
+  CHECK(warnings(Eigen::Vector3d(4.2e-3, 0, 0)).empty());
+  const std::vector<std::string> swapped = warnings(Eigen::Vector3d(-4.2e-3, 0, 0));
+  REQUIRE(swapped.size() == 1);
+  CHECK_THAT(swapped[0], Contains("extrinsics_placed.yml") && Contains("4.20 mm to the LEFT") && Contains("swapped"));
+  const std::vector<std::string> ahead = warnings(Eigen::Vector3d(4.2e-3, 0, 2.1e-3));
+  REQUIRE(ahead.size() == 1);
+  CHECK_THAT(ahead[0], Contains("2.10 mm ahead of or behind") && Contains("45%"));
+  const std::vector<std::string> wide = warnings(Eigen::Vector3d(30e-3, 0, 0));
+  REQUIRE(wide.size() == 1);
+  CHECK_THAT(wide[0], Contains("baseline of 30.00 mm") && Contains("2-20 mm"));
 }
 
 // The same pair written by cv::FileStorage under dynaguide's names without

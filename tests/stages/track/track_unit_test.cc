@@ -108,6 +108,29 @@ TEST_CASE("triangulator: a point seen in both rectified images triangulates to i
   CHECK((back - uv_left_R).norm() < 1e-6);
 }
 
+// The disparity range of a depth range, f B / z rounded outwards; a pair
+// whose right camera sits on the left (T's sign flipped, or left and right
+// swapped) has negative disparities, which no matcher's range holds: named
+// as such, not as an invalid matcher option.
+TEST_CASE("triangulator: the disparity range of a depth range, and a right camera on the left", "[stages][unit]") {
+  io::StereoCalibration calibration;
+  calibration.left.K << 600, 0, 320, 0, 600, 240, 0, 0, 1;
+  calibration.left.width = 640, calibration.left.height = 480;
+  calibration.right = calibration.left;
+  calibration.T_m = Eigen::Vector3d(-0.005, 0, 0);
+  testing::AddRectification(&calibration);
+  const auto [min_px, max_px] = Triangulator(calibration).DisparityRange(0.03, 0.3);
+  const double f_px = calibration.rectification->P1(0, 0);
+  CHECK(min_px == std::floor(f_px * 0.005 / 0.3));
+  CHECK(max_px == std::ceil(f_px * 0.005 / 0.03));
+  CHECK_THROWS_WITH(Triangulator(calibration).DisparityRange(0.3, 0.03), Contains("empty"));
+
+  calibration.T_m = Eigen::Vector3d(0.005, 0, 0);
+  testing::AddRectification(&calibration);
+  CHECK_THROWS_WITH(Triangulator(calibration).DisparityRange(0.03, 0.3),
+                    Contains("negative disparities") && Contains("right camera on the left") && Contains("swap"));
+}
+
 TEST_CASE("track options: invalid values are rejected by name", "[stages][unit]") {
   FeatureDetector::Options detector;
   detector.corners = detector.mser = false;
