@@ -94,6 +94,29 @@ TEST_CASE("calibrate: OpenCV's real chessboard pairs, with a rejected view named
   CHECK(report.rms_stereo_px <= 0.46);
   CHECK(report.epipolar_error_px <= 0.30);
 
+  // Per view and per corner: the corners' errors, squared and averaged over
+  // all views, give back OpenCV's overall RMS of each camera; each view's
+  // RMS is its own corners'.
+  REQUIRE(report.views.size() == 13);
+  for (const auto& [overall, side] : {std::pair{report.rms_left_px, 0}, std::pair{report.rms_right_px, 1}}) {
+    double sum2 = 0;
+    size_t corners = 0;
+    for (const StereoCalibrationReport::ViewErrors& view : report.views) {
+      const std::vector<double>& errors = side == 0 ? view.corner_left_px : view.corner_right_px;
+      REQUIRE(errors.size() == 54);
+      double view_sum2 = 0;
+      for (double e : errors) view_sum2 += e * e;
+      CHECK(std::sqrt(view_sum2 / 54) == Approx(side == 0 ? view.rms_left_px : view.rms_right_px).epsilon(1e-4));
+      sum2 += view_sum2, corners += errors.size();
+    }
+    CHECK(std::sqrt(sum2 / double(corners)) == Approx(overall).epsilon(1e-4));
+  }
+  // OpenCV's one-step calibration (intrinsics free) on the same corners finds
+  // the same pair (0.06% apart; 5% would be warned of).
+  INFO("baseline " << report.calibration.T_m.norm() * 1e3 << " mm, free " << report.free_intrinsics_baseline_m * 1e3);
+  CHECK(report.calibration.T_m.norm() == Approx(report.free_intrinsics_baseline_m).epsilon(0.002));  // 0.06% here
+  CHECK(report.warnings.empty());
+
   // The written files: the calibration reads back with its rectification, the JSON has the figures.
   const std::string yaml = (dir / "calibration.yaml").string(), json = (dir / "report.json").string();
   io::WriteStereoCalibration(yaml, report.calibration);
@@ -104,7 +127,8 @@ TEST_CASE("calibrate: OpenCV's real chessboard pairs, with a rejected view named
   std::stringstream text;
   text << std::ifstream(json).rdbuf();
   for (const char* key : {"\"rms_left_px\"", "\"rms_right_px\"", "\"rms_stereo_px\"", "\"epipolar_error_px\"",
-                          "\"views_used\": 13"}) {
+                          "\"views_used\": 13", "\"baseline_free_intrinsics_m\"", "\"corner_errors_left_px\"",
+                          "\"warnings\": []"}) {
     REQUIRE_THAT(text.str(), Catch::Contains(key));
   }
 }

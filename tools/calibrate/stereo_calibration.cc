@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <optional>
 
 #include <opencv2/calib3d.hpp>
@@ -122,6 +123,33 @@ double MeanRectifiedRowError(const cv::Mat& K1, const cv::Mat& D1, const cv::Mat
   return sum / count;
 }
 
+// |reprojected - detected| of each corner of one view, through the pose and
+// intrinsics its camera's calibration found.
+std::vector<double> CornerErrors(const std::vector<cv::Point3f>& board, const Corners& detected, const cv::Mat& rvec,
+                                 const cv::Mat& tvec, const cv::Mat& K, const cv::Mat& D) {
+  std::vector<cv::Point2f> projected;
+  cv::projectPoints(board, rvec, tvec, K, D, projected);
+  std::vector<double> errors(projected.size());
+  for (size_t c = 0; c < projected.size(); ++c) errors[c] = cv::norm(projected[c] - detected[c]);
+  return errors;
+}
+
+// How far apart the two baselines may be before the calibration is warned of.
+constexpr double kBaselineAgreement = 0.05;
+
+// |T| from stereoCalibrate with the intrinsics as a guess it may change: the
+// one-step calibration OpenCV's samples do.
+double FreeIntrinsicsBaseline(const std::vector<std::vector<cv::Point3f>>& object_points,
+                              const std::vector<Corners>& left, const std::vector<Corners>& right, cv::Mat K1,
+                              cv::Mat D1, cv::Mat K2, cv::Mat D2, const cv::Size& size, int flags,
+                              const cv::TermCriteria& criteria) {
+  K1 = K1.clone(), D1 = D1.clone(), K2 = K2.clone(), D2 = D2.clone();
+  cv::Mat R, T, E, F;
+  cv::stereoCalibrate(object_points, left, right, K1, D1, K2, D2, size, R, T, E, F,
+                      flags | cv::CALIB_USE_INTRINSIC_GUESS, criteria);
+  return cv::norm(T);
+}
+
 }  // namespace
 
 DistortionModel ParseDistortionModel(const std::string& name) {
@@ -194,11 +222,36 @@ StereoCalibrationReport CalibrateStereo(const std::vector<ViewPair>& views,
   const int flags = CalibrationFlags(options.model);
   const cv::TermCriteria criteria(cv::TermCriteria::COUNT + cv::TermCriteria::EPS, 200, 1e-12);
   cv::Mat K1, D1, K2, D2, R, T, E, F;
-  std::vector<cv::Mat> rvecs, tvecs;
-  report.rms_left_px = cv::calibrateCamera(object_points, left, *image_size, K1, D1, rvecs, tvecs, flags, criteria);
-  report.rms_right_px = cv::calibrateCamera(object_points, right, *image_size, K2, D2, rvecs, tvecs, flags, criteria);
+  std::vector<cv::Mat> rvecs_left, tvecs_left, rvecs_right, tvecs_right;
+  cv::Mat unused_deviations, per_view_left, per_view_right, per_view_stereo;
+  report.rms_left_px = cv::calibrateCamera(object_points, left, *image_size, K1, D1, rvecs_left, tvecs_left,
+                                           unused_deviations, unused_deviations, per_view_left, flags, criteria);
+  report.rms_right_px = cv::calibrateCamera(object_points, right, *image_size, K2, D2, rvecs_right, tvecs_right,
+                                            unused_deviations, unused_deviations, per_view_right, flags, criteria);
   report.rms_stereo_px = cv::stereoCalibrate(object_points, left, right, K1, D1, K2, D2, *image_size, R, T, E, F,
-                                             flags | cv::CALIB_FIX_INTRINSIC, criteria);
+                                             per_view_stereo, flags | cv::CALIB_FIX_INTRINSIC, criteria);
+  for (size_t v = 0; v < left.size(); ++v) {
+    StereoCalibrationReport::ViewErrors& errors = report.views.emplace_back();
+    errors.rms_left_px = per_view_left.at<double>(static_cast<int>(v));
+    errors.rms_right_px = per_view_right.at<double>(static_cast<int>(v));
+    errors.stereo_left_px = per_view_stereo.at<double>(static_cast<int>(v), 0);
+    errors.stereo_right_px = per_view_stereo.at<double>(static_cast<int>(v), 1);
+    errors.corner_left_px = CornerErrors(board_points, left[v], rvecs_left[v], tvecs_left[v], K1, D1);
+    errors.corner_right_px = CornerErrors(board_points, right[v], rvecs_right[v], tvecs_right[v], K2, D2);
+  }
+  report.free_intrinsics_baseline_m = FreeIntrinsicsBaseline(object_points, left, right, K1, D1, K2, D2, *image_size,
+                                                             flags, criteria);
+  const double baseline_m = cv::norm(T);
+  const double difference = std::abs(baseline_m - report.free_intrinsics_baseline_m) / report.free_intrinsics_baseline_m;
+  if (difference > kBaselineAgreement) {
+    char line[400];
+    std::snprintf(line, sizeof line,
+                  "the baseline with each camera's intrinsics fixed (%.3f mm) differs from stereoCalibrate's with "
+                  "them free (%.3f mm) by %.1f%%: the views do not pin the pair down; add views with the board "
+                  "tilted and at several distances, filling the image",
+                  1e3 * baseline_m, 1e3 * report.free_intrinsics_baseline_m, 100 * difference);
+    report.warnings.push_back(line);
+  }
 
   io::StereoCalibration& calibration = report.calibration;
   calibration.left = ToCamera(K1, D1, *image_size, options.model);

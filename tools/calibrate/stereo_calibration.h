@@ -42,6 +42,20 @@ struct StereoCalibrationReport {
   double epipolar_error_px = 0;
   std::vector<ViewPair> used;
   std::vector<std::string> rejected;  // one line per view: its files and why
+
+  // Reprojection errors of one used view (in `used`'s order).
+  struct ViewErrors {
+    double rms_left_px = 0, rms_right_px = 0;        // each camera's own calibration
+    double stereo_left_px = 0, stereo_right_px = 0;  // the stereo step's, per camera
+    // |reprojected - detected| of each inner corner, row by row, from each camera's own calibration.
+    std::vector<double> corner_left_px, corner_right_px;
+  };
+  std::vector<ViewErrors> views;
+  // The baseline stereoCalibrate gives with the intrinsics left free (OpenCV's
+  // one-step calibration): far from the baseline with them fixed, the views
+  // do not pin the pair down.
+  double free_intrinsics_baseline_m = 0;
+  std::vector<std::string> warnings;  // one line each, for the user
 };
 
 // Zhang's method in the order that calibrates best: the board's corners found
