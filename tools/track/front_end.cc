@@ -72,6 +72,7 @@ pipeline::FrontEndSettings FrontEndSettingsOf(const FrontEndInput& input) {
   pipeline::FrontEndSettings settings;
   settings.near_m = input.near_m;
   settings.far_m = input.far_m;
+  settings.target_features = input.target_features;
   return settings;
 }
 

@@ -22,6 +22,7 @@ struct FrontEndInput {
   // converted with the calibration to the disparity range, so a narrower
   // range is faster and rejects more false matches. 0 < near_m < far_m.
   double near_m = pipeline::FrontEndSettings{}.near_m, far_m = pipeline::FrontEndSettings{}.far_m;
+  int target_features = pipeline::FrontEndSettings{}.target_features;  // tracked features wanted, as run's --features
 };
 
 // The input as a scene cut after tracking. pipeline::BuildSceneGraph makes of

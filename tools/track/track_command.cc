@@ -41,6 +41,10 @@ void AddTrackCommand(CLI::App& app) {
   command->add_option("--near", options->input.near_m, "Nearest depth matched, metres (sets the disparity range)")
       ->capture_default_str();
   command->add_option("--far", options->input.far_m, "Farthest depth matched, metres")->capture_default_str();
+  command->add_option("--features", options->input.target_features,
+                      "Tracked features wanted (detection tops the tracks up when fewer than 90% are alive)")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
   command->add_option("--out", options->out_h5, "Tracks as HDF5 (/tracks/..., written as it goes; root attribute complete = 1 at the end); its folder is created")->required();
   command->add_option("--csv", options->out_csv, "Tracks as CSV too");
   command->add_option("--frames", *frames, "Frame range A:B (B exclusive)");
