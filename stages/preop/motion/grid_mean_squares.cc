@@ -84,46 +84,41 @@ class GridMeanSquares final : public itk::SingleValuedCostFunction {
 
   long Samples(unsigned d) const { return static_cast<long>(axes_[d].size()); }
 
-  // Coordinate d of the displacement (mm) at every sample, into
-  // field_[d * samples ...], from that coordinate's control points p.
-  void Displacements(const double* p, unsigned d) const {
-    const long nx = Samples(0), ny = Samples(1), nz = Samples(2);
-    const long cx = controls_[0], cy = controls_[1], cz = controls_[2];
-    std::vector<double>& along_x = scratch_[0];  // [cz][cy][x]
-    along_x.assign(cz * cy * nx, 0.0);
-    for (long c = 0; c < cz * cy; ++c) {
-      const double* row = p + c * cx;
-      for (long i = 0; i < nx; ++i) {
-        const AxisWeights& w = axes_[0][i];
+  // One axis of the spline, for `outer` blocks: along the axis, sample s
+  // takes the four control planes from axis[s].first, each plane `inner`
+  // values long (1 along x, a row along y, a slice along z). Forward, the
+  // samples gather w times the control planes; transposed, the control
+  // planes gather w times the samples (the gradient's pass).
+  static void AlongAxis(const std::vector<AxisWeights>& axis, long controls, long outer, long inner,
+                        bool transposed, const double* from, double* to) {
+    const long samples = static_cast<long>(axis.size());
+    for (long o = 0; o < outer; ++o) {
+      for (long s = 0; s < samples; ++s) {
+        const AxisWeights& w = axis[s];
         if (!w.inside) continue;
-        const double* q = row + w.first;
-        along_x[c * nx + i] = w.weights[0] * q[0] + w.weights[1] * q[1] + w.weights[2] * q[2] + w.weights[3] * q[3];
-      }
-    }
-    std::vector<double>& along_y = scratch_[1];  // [cz][y][x]
-    along_y.assign(cz * ny * nx, 0.0);
-    for (long c = 0; c < cz; ++c) {
-      for (long j = 0; j < ny; ++j) {
-        const AxisWeights& w = axes_[1][j];
-        if (!w.inside) continue;
-        double* out = &along_y[(c * ny + j) * nx];
-        for (int b = 0; b < 4; ++b) {
-          const double* in = &along_x[(c * cy + w.first + b) * nx];
-          for (long i = 0; i < nx; ++i) out[i] += w.weights[b] * in[i];
+        for (int t = 0; t < 4; ++t) {
+          const long control = (o * controls + w.first + t) * inner, sample = (o * samples + s) * inner;
+          const double* in = from + (transposed ? sample : control);
+          double* out = to + (transposed ? control : sample);
+          for (long v = 0; v < inner; ++v) out[v] += w.weights[t] * in[v];
         }
       }
     }
+  }
+
+  // Coordinate d of the displacement (mm) at every sample, into
+  // field_[d * samples ...], from that coordinate's control points p: along
+  // x into [cz][cy][x], along y into [cz][y][x], along z into [z][y][x].
+  void Displacements(const double* p, unsigned d) const {
+    const long nx = Samples(0), ny = Samples(1), nz = Samples(2);
+    const long cx = controls_[0], cy = controls_[1], cz = controls_[2];
+    scratch_[0].assign(cz * cy * nx, 0.0);
+    AlongAxis(axes_[0], cx, cz * cy, 1, false, p, scratch_[0].data());
+    scratch_[1].assign(cz * ny * nx, 0.0);
+    AlongAxis(axes_[1], cy, cz, nx, false, scratch_[0].data(), scratch_[1].data());
     double* field = &field_[d * nx * ny * nz];
     std::fill(field, field + nx * ny * nz, 0.0);
-    for (long k = 0; k < nz; ++k) {
-      const AxisWeights& w = axes_[2][k];
-      if (!w.inside) continue;
-      double* out = field + k * ny * nx;
-      for (int c = 0; c < 4; ++c) {
-        const double* in = &along_y[(w.first + c) * ny * nx];
-        for (long v = 0; v < ny * nx; ++v) out[v] += w.weights[c] * in[v];
-      }
-    }
+    AlongAxis(axes_[2], cz, 1, ny * nx, false, scratch_[1].data(), field);
   }
 
   // The transpose of Displacements: g (coordinate d's control points) gets
@@ -132,40 +127,11 @@ class GridMeanSquares final : public itk::SingleValuedCostFunction {
   void AddTransposed(unsigned d, double* g) const {
     const long nx = Samples(0), ny = Samples(1), nz = Samples(2);
     const long cx = controls_[0], cy = controls_[1], cz = controls_[2];
-    const double* field = &field_[d * nx * ny * nz];
-    std::vector<double>& along_y = scratch_[1];  // [cz][y][x]
-    along_y.assign(cz * ny * nx, 0.0);
-    for (long k = 0; k < nz; ++k) {
-      const AxisWeights& w = axes_[2][k];
-      if (!w.inside) continue;
-      const double* in = field + k * ny * nx;
-      for (int c = 0; c < 4; ++c) {
-        double* out = &along_y[(w.first + c) * ny * nx];
-        for (long v = 0; v < ny * nx; ++v) out[v] += w.weights[c] * in[v];
-      }
-    }
-    std::vector<double>& along_x = scratch_[0];  // [cz][cy][x]
-    along_x.assign(cz * cy * nx, 0.0);
-    for (long c = 0; c < cz; ++c) {
-      for (long j = 0; j < ny; ++j) {
-        const AxisWeights& w = axes_[1][j];
-        if (!w.inside) continue;
-        const double* in = &along_y[(c * ny + j) * nx];
-        for (int b = 0; b < 4; ++b) {
-          double* out = &along_x[(c * cy + w.first + b) * nx];
-          for (long i = 0; i < nx; ++i) out[i] += w.weights[b] * in[i];
-        }
-      }
-    }
-    for (long c = 0; c < cz * cy; ++c) {
-      double* row = g + c * cx;
-      for (long i = 0; i < nx; ++i) {
-        const AxisWeights& w = axes_[0][i];
-        if (!w.inside) continue;
-        const double value = along_x[c * nx + i];
-        for (int a = 0; a < 4; ++a) row[w.first + a] += w.weights[a] * value;
-      }
-    }
+    scratch_[1].assign(cz * ny * nx, 0.0);
+    AlongAxis(axes_[2], cz, 1, ny * nx, true, &field_[d * nx * ny * nz], scratch_[1].data());
+    scratch_[0].assign(cz * cy * nx, 0.0);
+    AlongAxis(axes_[1], cy, cz, nx, true, scratch_[1].data(), scratch_[0].data());
+    AlongAxis(axes_[0], cx, cz * cy, 1, true, scratch_[0].data(), g);
   }
 
   // The separable passes must give ITK's transform, or the motion fitted
