@@ -7,6 +7,11 @@ Usage:
                                            <!-- figures:begin --> and <!-- figures:end -->
                                            in FILE differs from the generated one
   tools/benchmark_table.py --write FILE    rewrite that block in FILE
+  tools/benchmark_table.py --add-to-series RECORD.json SERIES.json
+                                           append the float forward entries of one
+                                           `dynaguide bench sim --json` record to a series
+                                           as its next run, keeping its latest SERIES_RUNS
+                                           runs and only the fields the table reads
 
 Every value comes from a record that `dynaguide bench ...` or `dynaguide eval runtime`
 wrote; a figure whose record is missing is left out of the table. The targets are the
@@ -242,6 +247,29 @@ def series_pairs(name):
     return [(run[1], run[2]) for _, run in sorted(runs.items()) if 1 in run and 2 in run]
 
 
+# A series holds the spread of one figure over repeated runs; of each run it
+# keeps what the table reads and the run's provenance, one entry per line.
+SERIES_RUNS = 30
+SERIES_FIELDS = ("mesh", "threads", "precision", "mode", "tet_steps_per_s", "speedup_over_1_thread",
+                 "nothing_shared_tet_steps_per_s", "cpu", "series_run") + PROVENANCE
+
+
+def add_to_series(record_path, series_path):
+    with open(record_path) as f:
+        record = json.load(f)
+    series = []
+    if os.path.exists(series_path):
+        with open(series_path) as f:
+            series = json.load(f)
+    run = max((r["series_run"] for r in series), default=0) + 1
+    series += [{**r, "series_run": run} for r in record
+               if r.get("precision") == "float" and r.get("mode") == "forward"]
+    kept_runs = sorted({r["series_run"] for r in series})[-SERIES_RUNS:]
+    series = [{k: r[k] for k in SERIES_FIELDS if k in r} for r in series if r["series_run"] in kept_runs]
+    with open(series_path, "w") as f:
+        f.write("[\n" + ",\n".join("  " + json.dumps(r) for r in series) + "\n]\n")
+
+
 def pick_mesh_file(threads, source):
     """The float record of the 20k file ('file'), its shuffled copy ('shuffled')
     or the generated box timed in the same rounds ('box')."""
@@ -391,6 +419,9 @@ def split(text, path):
 def main(argv):
     if len(argv) == 1:
         print(generate(os.getcwd()))
+        return 0
+    if len(argv) == 4 and argv[1] == "--add-to-series":
+        add_to_series(argv[2], argv[3])
         return 0
     if len(argv) != 3 or argv[1] not in ("--check", "--write"):
         print(__doc__, file=sys.stderr)
